@@ -1,0 +1,1 @@
+//! Calibration targets and synthetic underwater scenes with ground truth.

@@ -1,0 +1,230 @@
+//! The laser as a line `origin + t * direction` in the camera frame, with the origin in the
+//! camera's xy-plane (z = 0), as in the thesis (§3.2). Dot depth from a pixel, the laser's
+//! intersection with a plane, and its image.
+
+use crate::{CameraModel, Vec2, Vec3};
+use serde::{Deserialize, Serialize};
+
+/// A plane `normal . p = offset_m` in the camera frame (unit normal).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Plane {
+    pub normal: Vec3,
+    pub offset_m: f64,
+}
+
+impl Plane {
+    /// The plane through `point_m` with the given normal (normalised here).
+    pub fn through(point_m: Vec3, normal: Vec3) -> Self {
+        let n = normal.normalize();
+        Plane { normal: n, offset_m: n.dot(&point_m) }
+    }
+
+    /// Where the line `origin + t * direction` meets the plane, with its `t`.
+    /// `None` when the line is (nearly) parallel to the plane.
+    pub fn intersect(&self, origin: &Vec3, direction: &Vec3) -> Option<(Vec3, f64)> {
+        let denom = self.normal.dot(direction);
+        if denom.abs() < 1e-9 {
+            return None;
+        }
+        let t = (self.offset_m - self.normal.dot(origin)) / denom;
+        Some((origin + direction * t, t))
+    }
+}
+
+/// The laser beam relative to the camera.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct LaserLine {
+    /// Where the beam crosses the camera's xy-plane, metres; `z` is always 0.
+    pub origin_m: [f64; 3],
+    /// Unit direction of the beam, pointing away from the camera (`z > 0`).
+    pub direction: [f64; 3],
+}
+
+/// Where the laser dot seen at one pixel lies, by the thesis's closest-point rule.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct DotFix {
+    /// The point on the camera ray closest to the laser line (the thesis's `lambda_2 v`).
+    pub point_m: Vec3,
+    /// Its depth, `point_m.z`: the distance `D` used for lengths.
+    pub depth_m: f64,
+    /// Parameter along the laser from its origin (metres, since the direction is unit).
+    pub along_laser_m: f64,
+    /// Gap between the camera ray and the laser line at their closest approach. Zero for a
+    /// dot exactly on the calibrated line; it grows when the laser has moved.
+    pub miss_m: f64,
+}
+
+impl LaserLine {
+    /// Builds a line from any point on it and any direction with positive z; moves the
+    /// origin to the z = 0 plane and normalises the direction.
+    pub fn from_point_direction(point_m: Vec3, direction: Vec3) -> Option<Self> {
+        let mut d = direction.try_normalize(1e-15)?;
+        if d.z < 0.0 {
+            d = -d;
+        }
+        if d.z < 1e-6 {
+            return None;
+        }
+        let o = point_m - d * (point_m.z / d.z);
+        Some(LaserLine { origin_m: [o.x, o.y, 0.0], direction: [d.x, d.y, d.z] })
+    }
+
+    pub fn origin(&self) -> Vec3 {
+        Vec3::new(self.origin_m[0], self.origin_m[1], self.origin_m[2])
+    }
+
+    pub fn dir(&self) -> Vec3 {
+        Vec3::new(self.direction[0], self.direction[1], self.direction[2])
+    }
+
+    /// The point on the beam at depth `z_m`.
+    pub fn point_at_depth(&self, z_m: f64) -> Vec3 {
+        let d = self.dir();
+        self.origin() + d * ((z_m - self.origin_m[2]) / d.z)
+    }
+
+    /// Angle between the beam and the optical axis, radians.
+    pub fn angle_to_optical_axis(&self) -> f64 {
+        libm::acos(self.direction[2].clamp(-1.0, 1.0))
+    }
+
+    /// Distance from the optical centre to the beam's origin, metres (the rig's baseline).
+    pub fn baseline_m(&self) -> f64 {
+        libm::hypot(self.origin_m[0], self.origin_m[1])
+    }
+
+    /// The thesis's closed form (§3.3, App. A.1, with `b = -l`): the camera ray `lambda_2 v`
+    /// and the beam `l + lambda_1 d` brought closest in least squares. `None` when the ray is
+    /// parallel to the beam, where depth is unobservable, or the fix lies behind the camera.
+    pub fn fix_from_ray(&self, ray: &Vec3) -> Option<DotFix> {
+        let v = ray.normalize();
+        let d = self.dir();
+        let l = self.origin();
+        let dv = d.dot(&v);
+        let denom = 1.0 - dv * dv;
+        if denom < 1e-12 {
+            return None;
+        }
+        let lambda2 = (v.dot(&l) - d.dot(&l) * dv) / denom;
+        let lambda1 = (dv * v.dot(&l) - d.dot(&l)) / denom;
+        if lambda2 <= 0.0 {
+            return None;
+        }
+        let on_ray = v * lambda2;
+        let on_laser = l + d * lambda1;
+        Some(DotFix {
+            point_m: on_ray,
+            depth_m: on_ray.z,
+            along_laser_m: lambda1,
+            miss_m: (on_ray - on_laser).norm(),
+        })
+    }
+
+    /// [`LaserLine::fix_from_ray`] for a dot seen at a pixel.
+    pub fn fix_from_pixel(&self, camera: &CameraModel, dot_px: Vec2) -> Option<DotFix> {
+        self.fix_from_ray(&camera.ray(dot_px)?)
+    }
+
+    /// Where the beam hits a plane (a target), if in front of the camera.
+    pub fn hit(&self, plane: &Plane) -> Option<Vec3> {
+        let (p, _) = plane.intersect(&self.origin(), &self.dir())?;
+        (p.z > 0.0).then_some(p)
+    }
+
+    /// Pixel where the beam would be seen at depth `z_m`.
+    pub fn pixel_at_depth(&self, camera: &CameraModel, z_m: f64) -> Option<Vec2> {
+        camera.project(&self.point_at_depth(z_m))
+    }
+
+    /// Shortest distance in pixels from `pixel` to the beam's image (a curve under
+    /// distortion), searched over depths `[near_m, far_m]`.
+    pub fn pixel_offset(&self, camera: &CameraModel, pixel: Vec2, near_m: f64, far_m: f64) -> Option<f64> {
+        // The image of a line is smooth and monotone in depth; a coarse log-spaced scan then
+        // golden-section refinement finds the closest point well below 0.01 px.
+        let f = |z: f64| self.pixel_at_depth(camera, z).map(|p| (p - pixel).norm());
+        let n = 64;
+        let (ln_a, ln_b) = (libm::log(near_m), libm::log(far_m));
+        let mut best: Option<(f64, f64)> = None;
+        for i in 0..=n {
+            let z = libm::exp(ln_a + (ln_b - ln_a) * i as f64 / n as f64);
+            if let Some(e) = f(z) {
+                if best.map_or(true, |(_, b)| e < b) {
+                    best = Some((z, e));
+                }
+            }
+        }
+        let (z0, _) = best?;
+        let step = (ln_b - ln_a) / n as f64;
+        let (mut a, mut b) = (libm::log(z0) - step, libm::log(z0) + step);
+        let g = |t: f64| f(libm::exp(t)).unwrap_or(f64::INFINITY);
+        let phi = 0.618_033_988_749_895;
+        for _ in 0..60 {
+            let c = b - phi * (b - a);
+            let d = a + phi * (b - a);
+            if g(c) < g(d) {
+                b = d;
+            } else {
+                a = c;
+            }
+        }
+        let e = g(0.5 * (a + b));
+        e.is_finite().then_some(e)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::Distortion;
+
+    fn cam() -> CameraModel {
+        CameraModel {
+            width_px: 4000,
+            height_px: 3000,
+            fx_px: 2900.0,
+            fy_px: 2900.0,
+            cx_px: 2000.0,
+            cy_px: 1500.0,
+            distortion: Distortion::from_opencv([-0.1, 0.03, 0.0, 0.0, 0.0]),
+        }
+    }
+
+    fn laser() -> LaserLine {
+        LaserLine::from_point_direction(Vec3::new(-0.04, -0.11, 0.0), Vec3::new(0.012, 0.03, 1.0)).unwrap()
+    }
+
+    #[test]
+    fn closed_form_recovers_depth_of_a_dot_on_the_beam() {
+        let (c, l) = (cam(), laser());
+        for &z in &[0.5, 1.0, 3.0, 5.0] {
+            let p = l.point_at_depth(z);
+            let px = c.project(&p).unwrap();
+            let fix = l.fix_from_pixel(&c, px).unwrap();
+            assert!((fix.depth_m - z).abs() < 1e-9 * z, "z {z} got {}", fix.depth_m);
+            assert!(fix.miss_m < 1e-9);
+            assert!(c.contains(px));
+        }
+    }
+
+    #[test]
+    fn miss_distance_grows_off_the_beam() {
+        let (c, l) = (cam(), laser());
+        let p = l.point_at_depth(2.0) + Vec3::new(0.01, 0.0, 0.0);
+        let fix = l.fix_from_pixel(&c, c.project(&p).unwrap()).unwrap();
+        assert!(fix.miss_m > 0.005 && fix.miss_m < 0.0101, "{}", fix.miss_m);
+    }
+
+    #[test]
+    fn plane_hit_and_pixel_offset() {
+        let (c, l) = (cam(), laser());
+        let plane = Plane::through(Vec3::new(0.0, 0.0, 2.0), Vec3::new(0.2, -0.1, -1.0));
+        let hit = l.hit(&plane).unwrap();
+        assert!((plane.normal.dot(&hit) - plane.offset_m).abs() < 1e-12);
+        let on = c.project(&hit).unwrap();
+        assert!(l.pixel_offset(&c, on, 0.3, 10.0).unwrap() < 1e-3);
+        // 5 px perpendicular-ish to a near-vertical image line.
+        let off = on + Vec2::new(5.0, 0.0);
+        let e = l.pixel_offset(&c, off, 0.3, 10.0).unwrap();
+        assert!(e > 4.0 && e <= 5.0 + 1e-6, "{e}");
+    }
+}
