@@ -1,1 +1,13 @@
+//! fslcal: field calibration for FishSense Lite (a TG-6 in a housing with a laser pointer).
+//!
+//! The geometry and the calibration file live in `fslcal-core` (no_std, shared with the
+//! camera companion). This crate adds what needs std: finding dots, fitting the laser,
+//! reading camera files, the OpenCV-backed vision module, and the CLI.
 
+pub mod camera_file;
+pub mod dot;
+pub mod laser_fit;
+#[cfg(feature = "vision")]
+pub mod vision;
+
+pub use fslcal_core as geometry;
