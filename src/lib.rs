@@ -4,8 +4,12 @@
 //! camera companion). This crate adds what needs std: finding dots, fitting the laser,
 //! reading camera files, the OpenCV-backed vision module, and the CLI.
 
+pub mod atomic_file;
 pub mod camera_file;
+pub mod cli;
 pub mod dot;
+#[cfg(feature = "vision")]
+pub mod laser_calibration;
 pub mod laser_fit;
 #[cfg(feature = "vision")]
 pub mod vision;

@@ -4,7 +4,7 @@
 mod board;
 mod pose;
 
-pub use board::{find_checkerboard, BoardSearch};
+pub use board::{find_checkerboard, local_square_px, refine_corners, BoardSearch};
 pub use pose::{solve_pose, TargetPose};
 
 use crate::dot::{ChannelOrder, ColourView};
@@ -57,6 +57,16 @@ impl<'p> EncodedPhoto<'p> {
             return Err(VisionError::Undecodable { path: self.path.display().to_string() });
         }
         Ok(m)
+    }
+
+    /// Width and height from the file's header, without decoding pixels.
+    pub fn dimensions(&self) -> Result<(u32, u32), VisionError> {
+        let undecodable = || VisionError::Undecodable { path: self.path.display().to_string() };
+        image::ImageReader::new(std::io::Cursor::new(self.buf.as_slice()))
+            .with_guessed_format()
+            .map_err(|_| undecodable())?
+            .into_dimensions()
+            .map_err(|_| undecodable())
     }
 
     /// Greyscale at 1/4 (JPEG decodes this fast by DCT scaling) or 1/2 size.

@@ -1,0 +1,280 @@
+//! `fslcal laser`: the command a diver runs before a dive.
+
+use super::progress;
+use crate::atomic_file::write_atomically;
+use crate::camera_file;
+use crate::dot::DotDetectorParams;
+use crate::laser_calibration::{calibrate, HandDots, LaserCalibration, LaserError, LaserJob, PhotoReport};
+use crate::laser_fit::{Gates, Method};
+use anyhow::{bail, Context};
+use calib_targets::Checkerboard;
+use fslcal_core::Vec2;
+use serde_json::json;
+use std::path::{Path, PathBuf};
+use std::process::ExitCode;
+
+/// Fit the laser line from photos of a checkerboard with the laser dot on it.
+///
+/// Take 8-20 photos with the dot on the board at distances spread over 0.5-5 m, board tilted
+/// a little differently in each. Photos without a board or a dot are skipped with a reason.
+#[derive(clap::Args, Debug)]
+pub struct LaserArgs {
+    /// Camera intrinsics: OpenCV FileStorage YAML, as OpenCV's calibration sample or
+    /// `fslcal camera --out` writes it.
+    #[arg(long, value_name = "CAMERA")]
+    camera: PathBuf,
+
+    /// The target in the photos: `checkerboard:COLSxROWS@SQUAREmm` with inner corners, e.g.
+    /// `checkerboard:14x10@42.17mm`. Measure the square with calipers over many squares: the
+    /// FishSense board's nominal 41.3 mm is really 42.17 mm, a silent 2% scale error.
+    #[arg(long, value_name = "TARGET", value_parser = parse_target)]
+    target: Checkerboard,
+
+    /// Fitting method. `reprojection` weighs each dot by what its pixel tells and drops
+    /// outlier photos; the thesis's `gauss-newton` and `average` use every dot as given.
+    #[arg(long, value_enum, default_value_t = Method::Reprojection)]
+    method: Method,
+
+    /// A dot given by hand for one photo, overriding detection (repeatable).
+    #[arg(long = "dot", value_name = "PHOTO=X,Y")]
+    dot: Vec<String>,
+
+    /// Hand-labelled dots, a CSV with `file,x,y` rows (a header row is allowed); `file` may
+    /// be a path or a file name.
+    #[arg(long = "dots", value_name = "CSV")]
+    dots: Option<PathBuf>,
+
+    /// Plausible camera-to-laser baseline for the rig, millimetres.
+    #[arg(long, value_name = "MIN,MAX", default_value = "78,145", value_parser = parse_range_mm)]
+    baseline_range_mm: (f64, f64),
+
+    /// A used dot must lie within this many pixels of the fitted line's image.
+    #[arg(long, value_name = "PX", default_value_t = 4.0)]
+    max_dot_offset_px: f64,
+
+    /// Print one JSON object instead of the summary.
+    #[arg(long)]
+    json: bool,
+
+    /// Write the result (JSON) here; only when every gate passes.
+    #[arg(long, value_name = "FILE")]
+    out: Option<PathBuf>,
+
+    /// Calibration photos (JPEG or PNG).
+    #[arg(required = true, value_name = "PHOTOS")]
+    photos: Vec<PathBuf>,
+}
+
+fn parse_target(s: &str) -> Result<Checkerboard, String> {
+    s.parse::<Checkerboard>().map_err(|e| e.to_string())
+}
+
+fn parse_range_mm(s: &str) -> Result<(f64, f64), String> {
+    let (a, b) = s.split_once(',').ok_or("expected MIN,MAX in millimetres, e.g. 78,145")?;
+    let (a, b): (f64, f64) = (
+        a.trim().parse().map_err(|_| format!("`{a}` is not a number"))?,
+        b.trim().parse().map_err(|_| format!("`{b}` is not a number"))?,
+    );
+    if !(a > 0.0 && b > a) {
+        return Err("expected 0 < MIN < MAX".into());
+    }
+    Ok((a / 1e3, b / 1e3))
+}
+
+fn parse_pixel(s: &str) -> Option<Vec2> {
+    let (x, y) = s.split_once(',')?;
+    let (x, y) = (x.trim().parse::<f64>().ok()?, y.trim().parse::<f64>().ok()?);
+    (x.is_finite() && y.is_finite()).then(|| Vec2::new(x, y))
+}
+
+fn hand_dots(args: &LaserArgs) -> anyhow::Result<HandDots> {
+    let mut dots = HandDots::default();
+    if let Some(csv) = &args.dots {
+        let text = std::fs::read_to_string(csv).with_context(|| format!("{}: cannot read the dots file", csv.display()))?;
+        for (n, line) in text.lines().enumerate() {
+            let line = line.trim();
+            if line.is_empty() || line.starts_with('#') {
+                continue;
+            }
+            let (file, xy) = line.split_once(',').unwrap_or((line, ""));
+            match parse_pixel(xy) {
+                Some(px) => dots.insert(Path::new(file.trim()), px),
+                // A header row names its columns.
+                None if n == 0 => continue,
+                None => bail!("{}:{}: expected `file,x,y` with x and y in pixels, got `{line}`", csv.display(), n + 1),
+            }
+        }
+    }
+    for d in &args.dot {
+        let (photo, xy) = d.split_once('=').unwrap_or((d, ""));
+        let px = parse_pixel(xy).with_context(|| format!("--dot {d}: expected PHOTO=X,Y with X and Y in pixels"))?;
+        dots.insert(Path::new(photo), px);
+    }
+    Ok(dots)
+}
+
+pub fn run(args: LaserArgs) -> anyhow::Result<ExitCode> {
+    let (camera, _) = camera_file::read(&args.camera)?;
+    let hand_dots = hand_dots(&args)?;
+    for p in &args.photos {
+        if !p.is_file() {
+            bail!("{}: no such photo", p.display());
+        }
+    }
+    let job = LaserJob {
+        camera,
+        board: args.target,
+        method: args.method,
+        gates: Gates { baseline_range_m: args.baseline_range_mm, max_dot_offset_px: args.max_dot_offset_px, ..Gates::default() },
+        detector: DotDetectorParams::default(),
+        hand_dots,
+    };
+    let bar = progress::bar(args.photos.len(), "photos", args.json);
+    let result = calibrate(&job, &args.photos, &|| bar.inc(1));
+    bar.finish_and_clear();
+    let cal = match result {
+        Ok(c) => c,
+        Err(LaserError::Fit { source, photos }) => {
+            if !args.json {
+                eprint!("{}", photo_table(&photos));
+            }
+            bail!("cannot fit the laser: {source}");
+        }
+        Err(e) => return Err(e.into()),
+    };
+    let report = json_report(&args, &cal);
+    if args.json {
+        println!("{}", serde_json::to_string_pretty(&report)?);
+    } else {
+        print!("{}", summary(&args, &cal));
+    }
+    if !cal.accepted() {
+        let failed: Vec<String> =
+            cal.gates.iter().filter(|g| !g.pass).map(|g| format!("{} {} (limit {})", g.name, g.figure, g.limit)).collect();
+        let note = if args.out.is_some() { "; nothing written" } else { "" };
+        bail!("laser calibration rejected: {}{note}", failed.join(", "));
+    }
+    if let Some(out) = &args.out {
+        let mut text = serde_json::to_string_pretty(&report)?;
+        text.push('\n');
+        write_atomically(out, text.as_bytes()).with_context(|| format!("{}: cannot write the result", out.display()))?;
+        if !args.json {
+            println!("wrote {}", out.display());
+        }
+    }
+    Ok(ExitCode::SUCCESS)
+}
+
+fn json_report(args: &LaserArgs, cal: &LaserCalibration) -> serde_json::Value {
+    let f = &cal.fit;
+    let sigma: serde_json::Map<String, serde_json::Value> =
+        f.distance_sigma_m.iter().map(|(z, s)| (format!("{z}"), json!(s))).collect();
+    json!({
+        "camera": args.camera.display().to_string(),
+        "target": args.target.to_string(),
+        "method": f.method,
+        "laser": {
+            "origin_m": f.laser.origin_m,
+            "direction": f.laser.direction,
+            "baseline_m": f.laser.baseline_m(),
+            "angle_to_optical_axis_deg": f.laser.angle_to_optical_axis().to_degrees(),
+            "covariance": f.covariance,
+            "covariance_parameters": ["origin_x_m", "origin_y_m", "direction_x_over_z", "direction_y_over_z"],
+        },
+        "residual_rms_px": f.residual_rms_px,
+        "residual_worst_px": f.residual_worst_px,
+        "residual_rms_mm": f.residual_rms_mm,
+        "residual_worst_mm": f.residual_worst_mm,
+        "span_m": f.span_m,
+        "depth_range_m": [f.depth_range_m.0, f.depth_range_m.1],
+        "predicted_distance_sigma_m": sigma,
+        "outliers": format!("{} of {}", cal.outliers.0, cal.outliers.1),
+        "gates": cal.gates,
+        "accepted": cal.accepted(),
+        "photos": cal.photos,
+    })
+}
+
+fn name_of(file: &str) -> String {
+    Path::new(file).file_name().map_or_else(|| file.to_string(), |n| n.to_string_lossy().into_owned())
+}
+
+fn photo_table(photos: &[PhotoReport]) -> String {
+    let mut s = String::new();
+    let width = photos.iter().map(|p| name_of(&p.file).len()).max().unwrap_or(4).max(4);
+    s += &format!("  {:width$}  {:>7}  {:>19}  {:>8}  {}\n", "file", "dist m", "dot px", "resid px", "status");
+    for p in photos {
+        let dist = p.distance_m.map_or("-".into(), |d| format!("{d:.3}"));
+        let dot = p.dot_px.map_or("-".into(), |d| format!("({:.1}, {:.1})", d[0], d[1]));
+        let resid = p.residual_px.map_or("-".into(), |r| format!("{r:.2}"));
+        let status = match (&p.reason, p.dot_source) {
+            (Some(r), _) => format!("{}: {r}", p.status),
+            (None, Some(src)) => format!("used ({})", serde_json::to_value(src).ok().and_then(|v| v.as_str().map(String::from)).unwrap_or_default()),
+            (None, None) => p.status.to_string(),
+        };
+        s += &format!("  {:width$}  {dist:>7}  {dot:>19}  {resid:>8}  {status}\n", name_of(&p.file));
+    }
+    s
+}
+
+fn summary(args: &LaserArgs, cal: &LaserCalibration) -> String {
+    let f = &cal.fit;
+    let l = &f.laser;
+    let used = cal.photos.iter().filter(|p| p.status == "used").count();
+    let mut s = format!(
+        "fslcal laser: {} photos, target {}, camera {}, method {}\n\n",
+        cal.photos.len(),
+        args.target,
+        args.camera.display(),
+        serde_json::to_value(f.method).ok().and_then(|v| v.as_str().map(String::from)).unwrap_or_default(),
+    );
+    s += &format!("photos: {used} used, {} skipped\n", cal.photos.len() - used);
+    s += &photo_table(&cal.photos);
+    let worst = f
+        .photos
+        .iter()
+        .zip(&cal.photos)
+        .filter_map(|(p, r)| p.as_ref().filter(|p| p.outlier.is_none()).map(|p| (p.residual_px, name_of(&r.file))))
+        .max_by(|a, b| a.0.total_cmp(&b.0));
+    s += &format!(
+        "\nresiduals: RMS {:.2} px ({:.2} mm on the board), worst {:.2} px ({:.2} mm){}; outliers {} of {}\n",
+        f.residual_rms_px,
+        f.residual_rms_mm,
+        f.residual_worst_px,
+        f.residual_worst_mm,
+        worst.map_or(String::new(), |(_, n)| format!(" in {n}")),
+        cal.outliers.0,
+        cal.outliers.1,
+    );
+    s += &format!(
+        "dots: {:.2}-{:.2} m deep, spanning {:.2} m along the laser\n",
+        f.depth_range_m.0, f.depth_range_m.1, f.span_m
+    );
+    let c = &f.covariance;
+    s += &format!(
+        "laser origin    ({:.2}, {:.2}, 0) mm  ±({:.2}, {:.2}) mm 1-sigma; baseline {:.1} mm\n",
+        l.origin_m[0] * 1e3,
+        l.origin_m[1] * 1e3,
+        c[0][0].sqrt() * 1e3,
+        c[1][1].sqrt() * 1e3,
+        l.baseline_m() * 1e3
+    );
+    s += &format!(
+        "laser direction ({:.5}, {:.5}, {:.5})  ±{:.4} deg 1-sigma; {:.3} deg from the optical axis\n",
+        l.direction[0],
+        l.direction[1],
+        l.direction[2],
+        (c[2][2] + c[3][3]).sqrt().atan().to_degrees(),
+        l.angle_to_optical_axis().to_degrees()
+    );
+    s += "predicted 1-sigma distance error from this calibration:";
+    for (z, sig) in &f.distance_sigma_m {
+        s += &format!("  at {z:.0} m: {:.1} mm ({:.2}%)", sig * 1e3, 100.0 * sig / z);
+    }
+    s += "\n\ngates:\n";
+    for g in &cal.gates {
+        s += &format!("  {}  {:28} {:>12}   limit {}\n", if g.pass { "pass" } else { "FAIL" }, g.name, g.figure, g.limit);
+    }
+    s += if cal.accepted() { "\nverdict: ACCEPTED\n" } else { "\nverdict: REJECTED\n" };
+    s
+}

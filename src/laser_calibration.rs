@@ -1,0 +1,432 @@
+//! The laser chain: photos of a checkerboard with the laser dot on it, to a fitted laser line
+//! with its quality gates.
+//!
+//! Per photo (in parallel): find the board at reduced size, refine its corners at full
+//! resolution, solve `T_cam_target`, look for dot candidates only on the physical board's
+//! image, and turn them into a [`DotObservation`]. Then fit. Photos where the first search
+//! found nothing usable get a second, more sensitive look near where the first fit says the
+//! dot must be, and the fit is repeated.
+
+use crate::dot::{find_dot_candidates, DotCandidate, DotDetectorParams, SearchRegion};
+use crate::laser_fit::{self, DotObservation, FitError, Gates, LaserFit, Method};
+use crate::vision::{self, EncodedPhoto, Photo, TargetPose};
+use calib_targets::Checkerboard;
+use fslcal_core::{CameraModel, LaserLine, Vec2, Vec3};
+use rayon::prelude::*;
+use serde::Serialize;
+use std::collections::HashMap;
+use std::path::{Path, PathBuf};
+
+/// Localisation of a dot clicked by hand, pixels (1 sigma per axis): people click the
+/// visual centre of a blob to about a pixel.
+const HAND_DOT_SIGMA_PX: f64 = 1.0;
+
+/// Where a photo's dot came from.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum DotSource {
+    Detected,
+    /// Found by the second, more sensitive search near the first fit's prediction.
+    DetectedNearPrediction,
+    Hand,
+}
+
+/// What was learned from one photo before fitting.
+#[derive(Clone, Debug)]
+pub struct PhotoEvidence {
+    pub image_size: (u32, u32),
+    pub pose: TargetPose,
+    /// The physical board's outline in the image (padded), pixels.
+    pub board_outline_px: Vec<Vec2>,
+    /// Dot candidates on the board, best first.
+    pub candidates: Vec<DotCandidate>,
+    pub dot_source: DotSource,
+    /// Reduction factor the board was found at (4 = quarter size).
+    pub found_at_factor: u32,
+}
+
+/// Outcome of the per-photo stage: evidence, or the reason the photo cannot be used.
+pub type PhotoResult = Result<PhotoEvidence, String>;
+
+/// Per-photo line of the report.
+#[derive(Clone, Debug, Serialize)]
+pub struct PhotoReport {
+    pub file: String,
+    /// "used" or "skipped".
+    pub status: &'static str,
+    pub reason: Option<String>,
+    pub dot_px: Option<[f64; 2]>,
+    pub dot_source: Option<DotSource>,
+    /// Depth of the dot on the board, metres.
+    pub distance_m: Option<f64>,
+    /// Dot's offset from the fitted line's image, pixels.
+    pub residual_px: Option<f64>,
+    /// RMS reprojection error of the board's corners for this photo's pose, pixels.
+    pub board_rms_px: Option<f64>,
+}
+
+/// One gate a careful lab applies, with its figure.
+#[derive(Clone, Debug, Serialize)]
+pub struct GateResult {
+    pub name: &'static str,
+    pub figure: String,
+    pub limit: String,
+    pub pass: bool,
+}
+
+/// Everything `fslcal laser` reports.
+#[derive(Clone, Debug)]
+pub struct LaserCalibration {
+    pub fit: LaserFit,
+    pub photos: Vec<PhotoReport>,
+    pub gates: Vec<GateResult>,
+    /// "x of N": photos whose dot disagreed with the line and were left out.
+    pub outliers: (usize, usize),
+}
+
+impl LaserCalibration {
+    pub fn accepted(&self) -> bool {
+        self.gates.iter().all(|g| g.pass)
+    }
+}
+
+#[derive(Debug, thiserror::Error)]
+pub enum LaserError {
+    #[error("{file}: the photo is {photo_w}x{photo_h} but the camera file describes a {camera_w}x{camera_h} image; use the camera file made for these photos (resized or cropped photos cannot be used)")]
+    ImageSize { file: String, photo_w: u32, photo_h: u32, camera_w: u32, camera_h: u32 },
+    #[error("cannot fit the laser: {source}")]
+    Fit {
+        #[source]
+        source: FitError,
+        photos: Vec<PhotoReport>,
+    },
+}
+
+/// Settings of one run.
+#[derive(Clone, Debug)]
+pub struct LaserJob {
+    pub camera: CameraModel,
+    pub board: Checkerboard,
+    pub method: Method,
+    pub gates: Gates,
+    pub detector: DotDetectorParams,
+    /// Hand-given dots by photo (as given on the command line, or by file name).
+    pub hand_dots: HandDots,
+}
+
+/// Hand-given dot pixels, looked up by the path as given or by file name alone (labelling
+/// tools export file names without the folders the photos sit in on this machine).
+#[derive(Clone, Debug, Default)]
+pub struct HandDots {
+    by_path: HashMap<PathBuf, Vec2>,
+    by_name: HashMap<String, Vec2>,
+}
+
+impl HandDots {
+    pub fn insert(&mut self, photo: &Path, px: Vec2) {
+        self.by_path.insert(photo.to_path_buf(), px);
+        if let Some(name) = photo.file_name() {
+            self.by_name.insert(name.to_string_lossy().into_owned(), px);
+        }
+    }
+
+    pub fn get(&self, photo: &Path) -> Option<Vec2> {
+        self.by_path.get(photo).copied().or_else(|| {
+            let name = photo.file_name()?.to_string_lossy();
+            self.by_name.get(name.as_ref()).copied()
+        })
+    }
+
+    pub fn len(&self) -> usize {
+        self.by_path.len()
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.by_path.is_empty()
+    }
+}
+
+/// Sub-pixel localisation of a detected dot, 1 sigma in pixels: the blob's size over its
+/// signal-to-noise, floored where JPEG and the model's own limits take over.
+fn detected_sigma_px(c: &DotCandidate) -> f64 {
+    (c.radius_px / c.snr.max(1.0)).clamp(0.1, 1.5)
+}
+
+/// The board's physical outline projected into the image, padded by half a square so a
+/// dot on the board's edge is still searched.
+fn board_outline_px(camera: &CameraModel, board: &Checkerboard, pose: &TargetPose) -> Vec<Vec2> {
+    let s = board.square_m;
+    let outline = board.outline_m();
+    let centre = outline.iter().fold(Vec3::zeros(), |a, p| a + Vec3::new(p[0], p[1], p[2])) / 4.0;
+    outline
+        .iter()
+        .filter_map(|p| {
+            let p = Vec3::new(p[0], p[1], p[2]);
+            let out = p + (p - centre).normalize() * (0.5 * s);
+            camera.project(&pose.to_camera(&out))
+        })
+        .collect()
+}
+
+/// Stage one for one photo: board, pose, dot candidates.
+pub fn examine_photo(job: &LaserJob, path: &Path) -> Result<PhotoResult, LaserError> {
+    let file = path.display().to_string();
+    let encoded = match EncodedPhoto::read(path) {
+        Ok(e) => e,
+        Err(e) => return Ok(Err(format!("unreadable: {}", strip_path(&e.to_string(), &file)))),
+    };
+    let (w, h) = match encoded.dimensions() {
+        Ok(d) => d,
+        Err(e) => return Ok(Err(format!("unreadable: {}", strip_path(&e.to_string(), &file)))),
+    };
+    if (w, h) != (job.camera.width_px, job.camera.height_px) {
+        return Err(LaserError::ImageSize {
+            file,
+            photo_w: w,
+            photo_h: h,
+            camera_w: job.camera.width_px,
+            camera_h: job.camera.height_px,
+        });
+    }
+    let (cols, rows) = (job.board.inner_cols, job.board.inner_rows);
+    let search = match vision::find_checkerboard(&encoded, cols, rows) {
+        Ok(Some(s)) => s,
+        Ok(None) => return Ok(Err(format!("no {cols}x{rows} checkerboard found (the whole board must be in the frame)"))),
+        Err(e) => return Ok(Err(strip_path(&e.to_string(), &file))),
+    };
+    let photo = match encoded.decode_full() {
+        Ok(p) => p,
+        Err(e) => return Ok(Err(strip_path(&e.to_string(), &file))),
+    };
+    let mut corners = search.corners_px;
+    if let Err(e) = vision::refine_corners(&photo, &mut corners, cols, rows) {
+        return Ok(Err(format!("corner refinement failed: {}", e.message)));
+    }
+    let object: Vec<Vec3> = job.board.object_points().iter().map(|p| Vec3::new(p[0], p[1], p[2])).collect();
+    let pose = match vision::solve_pose(&job.camera, &object, &corners) {
+        Ok(Some(p)) => p,
+        Ok(None) | Err(_) => return Ok(Err("the board's pose could not be solved (check the camera file)".into())),
+    };
+    // A pose whose corners do not reproject is a wrong camera file or a misdetected board.
+    if pose.rms_px > 2.0 {
+        return Ok(Err(format!(
+            "the board's corners reproject {:.1} px RMS from their pose (limit 2 px): wrong camera file or a bent board",
+            pose.rms_px
+        )));
+    }
+    let outline = board_outline_px(&job.camera, &job.board, &pose);
+    let (candidates, dot_source) = match job.hand_dots.get(path) {
+        Some(px) => (vec![hand_candidate(px)], DotSource::Hand),
+        None => {
+            let region = SearchRegion { polygon: outline.clone(), band: None };
+            (find_dot_candidates(&photo.colour(), &region, &job.detector, 8), DotSource::Detected)
+        }
+    };
+    Ok(Ok(PhotoEvidence {
+        image_size: (w, h),
+        pose,
+        board_outline_px: outline,
+        candidates,
+        dot_source,
+        found_at_factor: search.found_at_factor,
+    }))
+}
+
+fn hand_candidate(px: Vec2) -> DotCandidate {
+    DotCandidate { pixel: px, snr: f64::INFINITY, peak_green: 0.0, radius_px: 0.0, saturated_core: false }
+}
+
+/// Error texts from the vision module start with the path; the report already names it.
+fn strip_path(message: &str, file: &str) -> String {
+    message.strip_prefix(file).map(|m| m.trim_start_matches(':').trim().to_string()).unwrap_or_else(|| message.to_string())
+}
+
+fn observation(e: &PhotoEvidence) -> Option<DotObservation> {
+    if e.candidates.is_empty() {
+        return None;
+    }
+    let sigma_px = match e.dot_source {
+        DotSource::Hand => HAND_DOT_SIGMA_PX,
+        _ => detected_sigma_px(&e.candidates[0]),
+    };
+    Some(DotObservation { plane: e.pose.plane(), candidates: e.candidates.iter().map(|c| c.pixel).collect(), sigma_px })
+}
+
+/// Second look for a photo whose dot was not found or disagreed with the first fit: a more
+/// sensitive search in a small disc around where the line meets this photo's board. Far,
+/// faint dots in murky water often fall below the first search's threshold.
+fn search_near_prediction(job: &LaserJob, path: &Path, evidence: &PhotoEvidence, line: &LaserLine) -> Option<DotCandidate> {
+    let predicted = job.camera.project(&line.hit(&evidence.pose.plane())?)?;
+    let radius = (4.0 * job.gates.max_dot_offset_px).max(12.0);
+    let polygon: Vec<Vec2> = (0..8)
+        .map(|k| {
+            let a = k as f64 * std::f64::consts::TAU / 8.0;
+            predicted + Vec2::new(a.cos(), a.sin()) * radius / (std::f64::consts::PI / 8.0).cos()
+        })
+        .collect();
+    let photo: Photo = EncodedPhoto::read(path).ok()?.decode_full().ok()?;
+    let sensitive = DotDetectorParams {
+        threshold_sigma: 3.5,
+        min_excess_levels: 5.0,
+        min_snr: 5.0,
+        background_radius_px: job.detector.background_radius_px,
+        max_area_px: job.detector.max_area_px,
+    };
+    let region = SearchRegion { polygon, band: Some((vec![predicted], radius)) };
+    find_dot_candidates(&photo.colour(), &region, &sensitive, 1).into_iter().next()
+}
+
+/// Runs the whole chain. `progress` is called once per photo examined.
+pub fn calibrate(job: &LaserJob, photos: &[PathBuf], progress: &(dyn Fn() + Sync)) -> Result<LaserCalibration, LaserError> {
+    vision::use_single_threaded_opencv();
+    let mut results: Vec<PhotoResult> = photos
+        .par_iter()
+        .map(|p| {
+            let r = examine_photo(job, p);
+            progress();
+            r
+        })
+        .collect::<Result<_, _>>()?;
+
+    let observations = |results: &[PhotoResult]| -> Vec<Option<DotObservation>> {
+        results.iter().map(|r| r.as_ref().ok().and_then(observation)).collect()
+    };
+    let first = laser_fit::fit(&job.camera, &observations(&results), job.method, &job.gates);
+
+    // Second pass for the robust fit: photos with a board but no usable dot.
+    let fit = match (first, job.method) {
+        (Ok(first), Method::Reprojection) => {
+            let retry: Vec<usize> = results
+                .iter()
+                .enumerate()
+                .filter(|(i, r)| match r {
+                    Ok(e) => e.dot_source != DotSource::Hand
+                        && first.photos[*i].as_ref().map_or(true, |p| p.outlier.is_some()),
+                    Err(_) => false,
+                })
+                .map(|(i, _)| i)
+                .collect();
+            let found: Vec<(usize, Option<DotCandidate>)> = retry
+                .par_iter()
+                .map(|&i| {
+                    let e = results[i].as_ref().ok().expect("retry holds only photos with evidence");
+                    (i, search_near_prediction(job, &photos[i], e, &first.laser))
+                })
+                .collect();
+            let mut changed = false;
+            for (i, c) in found {
+                if let (Some(c), Ok(e)) = (c, results[i].as_mut()) {
+                    if e.candidates.first().map(|k| k.pixel) != Some(c.pixel) {
+                        e.candidates.insert(0, c);
+                        e.dot_source = DotSource::DetectedNearPrediction;
+                        changed = true;
+                    }
+                }
+            }
+            if changed {
+                laser_fit::fit(&job.camera, &observations(&results), job.method, &job.gates)
+            } else {
+                Ok(first)
+            }
+        }
+        (first, _) => first,
+    };
+
+    let fit = match fit {
+        Ok(f) => f,
+        Err(source) => {
+            let photos = report_photos(photos, &results, None);
+            return Err(LaserError::Fit { source, photos });
+        }
+    };
+    let photo_reports = report_photos(photos, &results, Some(&fit));
+    let present = fit.photos.iter().flatten().count();
+    let outliers = (present - fit.used, present);
+    let gates = gate(job, &fit, outliers);
+    Ok(LaserCalibration { fit, photos: photo_reports, gates, outliers })
+}
+
+fn gate(job: &LaserJob, fit: &LaserFit, outliers: (usize, usize)) -> Vec<GateResult> {
+    let g = &job.gates;
+    let baseline = fit.laser.baseline_m();
+    let worst_used = fit.photos.iter().flatten().filter(|p| p.outlier.is_none()).map(|p| p.residual_px).fold(0.0, f64::max);
+    vec![
+        GateResult {
+            name: "photos used",
+            figure: format!("{}", fit.used),
+            limit: format!(">= {}", g.min_photos),
+            pass: fit.used >= g.min_photos,
+        },
+        GateResult {
+            name: "dot span along the laser",
+            figure: format!("{:.2} m", fit.span_m),
+            limit: format!(">= {:.2} m", g.min_span_m),
+            pass: fit.span_m >= g.min_span_m,
+        },
+        GateResult {
+            name: "camera-to-laser baseline",
+            figure: format!("{:.1} mm", baseline * 1e3),
+            limit: format!("{:.1}-{:.1} mm", g.baseline_range_m.0 * 1e3, g.baseline_range_m.1 * 1e3),
+            pass: (g.baseline_range_m.0..=g.baseline_range_m.1).contains(&baseline),
+        },
+        GateResult {
+            name: "worst used dot off the line",
+            figure: format!("{worst_used:.2} px"),
+            limit: format!("<= {:.1} px", g.max_dot_offset_px),
+            pass: worst_used <= g.max_dot_offset_px,
+        },
+        GateResult {
+            name: "outlier photos",
+            figure: format!("{} of {}", outliers.0, outliers.1),
+            limit: "<= 1/3".to_string(),
+            pass: outliers.0 * 3 <= outliers.1,
+        },
+    ]
+}
+
+fn report_photos(paths: &[PathBuf], results: &[PhotoResult], fit: Option<&LaserFit>) -> Vec<PhotoReport> {
+    paths
+        .iter()
+        .zip(results)
+        .enumerate()
+        .map(|(i, (path, r))| {
+            let file = path.display().to_string();
+            let skipped = |reason: String| PhotoReport {
+                file: file.clone(),
+                status: "skipped",
+                reason: Some(reason),
+                dot_px: None,
+                dot_source: None,
+                distance_m: None,
+                residual_px: None,
+                board_rms_px: None,
+            };
+            let e = match r {
+                Err(reason) => return skipped(reason.clone()),
+                Ok(e) => e,
+            };
+            let mut rep = skipped(String::new());
+            rep.board_rms_px = Some(e.pose.rms_px);
+            let Some(pf) = fit.and_then(|f| f.photos[i].as_ref()) else {
+                rep.reason = Some(match (e.candidates.is_empty(), fit) {
+                    (true, _) => "no laser dot found on the board".to_string(),
+                    (false, None) => "not fitted (the fit was refused)".to_string(),
+                    (false, Some(_)) => "no usable dot".to_string(),
+                });
+                return rep;
+            };
+            rep.dot_px = Some(pf.dot_px);
+            rep.dot_source = Some(e.dot_source);
+            rep.distance_m = Some(pf.distance_m);
+            rep.residual_px = Some(pf.residual_px);
+            match &pf.outlier {
+                Some(why) => rep.reason = Some(format!("outlier: {why}")),
+                None => {
+                    rep.status = "used";
+                    rep.reason = None;
+                }
+            }
+            rep
+        })
+        .collect()
+}

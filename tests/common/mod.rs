@@ -1,0 +1,55 @@
+//! Rendered scene sets shared by the integration tests and the benchmark: rendered once per
+//! test binary into a temporary folder, with their ground truth.
+#![allow(dead_code)]
+
+use calib_targets::scene::{laser_scene_set, render, SceneSpec, SceneTruth, Water};
+use calib_targets::{camera_yaml, write_scene};
+use rayon::prelude::*;
+use std::path::{Path, PathBuf};
+
+pub struct SceneSet {
+    pub dir: PathBuf,
+    pub photos: Vec<PathBuf>,
+    pub truths: Vec<SceneTruth>,
+    pub camera_file: PathBuf,
+}
+
+impl SceneSet {
+    pub fn path(&self) -> &Path {
+        &self.dir
+    }
+}
+
+/// Renders `specs` as `photo_NN.jpg` with truth and a `camera.yml` for the first spec's
+/// camera, into a fresh folder `name` under cargo's per-target scratch folder (statics are
+/// never dropped, so a `TempDir` would leak into /tmp).
+pub fn render_set(name: &str, specs: &[SceneSpec]) -> SceneSet {
+    let dir = Path::new(env!("CARGO_TARGET_TMPDIR")).join(name);
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).expect("scratch folder");
+    let written: Vec<(PathBuf, SceneTruth)> = specs
+        .par_iter()
+        .enumerate()
+        .map(|(i, spec)| {
+            let scene = render(spec);
+            let name = format!("photo_{i:02}");
+            write_scene(&dir, &name, &scene).expect("write scene");
+            (dir.join(format!("{name}.jpg")), scene.truth)
+        })
+        .collect();
+    let camera_file = dir.join("camera.yml");
+    std::fs::write(&camera_file, camera_yaml(&specs[0].camera)).expect("write camera file");
+    let (photos, truths) = written.into_iter().unzip();
+    SceneSet { dir, photos, truths, camera_file }
+}
+
+pub fn laser_set(name: &str, count: usize, seed: u64, water: Water, glints: u32) -> SceneSet {
+    render_set(name, &laser_scene_set(count, seed, water, glints))
+}
+
+/// A photo of the same scenery with no board in it.
+pub fn no_board_spec(seed: u64) -> SceneSpec {
+    let mut spec = laser_scene_set(1, seed, Water::Clear, 0).remove(0);
+    spec.board = None;
+    spec
+}
