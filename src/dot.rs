@@ -12,6 +12,10 @@
 
 use fslcal_core::Vec2;
 
+/// An 8-bit level at or above which a channel is taken as clipped (JPEG rounding keeps
+/// clipped pixels a few levels below 255).
+const CLIPPED: i32 = 250;
+
 /// Channel order of an interleaved 8-bit 3-channel image.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum ChannelOrder {
@@ -162,7 +166,9 @@ pub fn find_dot_candidates(
         for x in 0..w {
             let (r, gg, b) = img.rgb(x0 + x, y0 + y);
             g[y * w + x] = gg - r.max(b);
-            saturated[y * w + x] = r >= 250 && gg >= 250 && b >= 250;
+            // The laser's green clips first; a clipped green channel shows no green excess
+            // however bright the dot is, so it counts as core.
+            saturated[y * w + x] = gg >= CLIPPED;
         }
     }
 
@@ -284,7 +290,9 @@ pub fn find_dot_candidates(
         // over the blob's pixels grown by two, so the weights fall off symmetrically.
         let bbox = (mnx, mxx, mny, mxy);
         let (cx, cy) = weighted_centre(&excess, &saturated, (w, h), &label, id, bbox, peak as f32, threshold);
-        let centre = Vec2::new((x0 as f64) + cx, (y0 as f64) + cy);
+        let rough = Vec2::new((x0 as f64) + cx, (y0 as f64) + cy);
+        let radius = (pixels.len() as f64 / core::f64::consts::PI).sqrt();
+        let centre = refine_centre(img, rough, radius).unwrap_or(rough);
         if let Some((line, half)) = &region.band {
             if distance_to_polyline(line, centre) > *half {
                 continue;
@@ -304,6 +312,185 @@ pub fn find_dot_candidates(
     candidates.sort_by(|a, b| b.snr.total_cmp(&a.snr));
     candidates.truncate(max);
     candidates
+}
+
+/// Re-centres a dot against a background model that the checkerboard cannot bias.
+///
+/// Under water, the board's colour in each channel is an affine function of its albedo
+/// (attenuated light plus backscatter veil), so across black and white squares green is an
+/// affine function of blue: `G = a + b B`. Fitted on a ring around the dot, that model
+/// predicts the background under the dot even where the dot straddles a square's edge,
+/// which a local mean cannot (it pulls the centre toward the white square by up to a
+/// pixel). The laser adds much more green than blue, so `G - (a + b B)` is the dot alone.
+/// The centroid is taken over a disc centred on the current estimate, three times, so the
+/// window is symmetric about the answer.
+fn refine_centre(img: &ColourView, rough: Vec2, blob_radius_px: f64) -> Option<Vec2> {
+    let r_in = blob_radius_px * 1.6 + 3.0;
+    let (ring_a, ring_b) = (r_in + 2.0, r_in + 6.0);
+    let mut c = rough;
+    for _ in 0..3 {
+        let x0 = (c.x - ring_b).floor() as i64;
+        let x1 = (c.x + ring_b).ceil() as i64;
+        let y0 = (c.y - ring_b).floor() as i64;
+        let y1 = (c.y + ring_b).ceil() as i64;
+        if x0 < 0 || y0 < 0 || x1 >= img.width as i64 || y1 >= img.height as i64 {
+            return None;
+        }
+        // Least squares G = a + b B on the ring (unsaturated pixels only).
+        let (mut n, mut sb, mut sg, mut sbb, mut sbg) = (0f64, 0f64, 0f64, 0f64, 0f64);
+        for y in y0..=y1 {
+            for x in x0..=x1 {
+                let d = ((x as f64 - c.x).powi(2) + (y as f64 - c.y).powi(2)).sqrt();
+                if d < ring_a || d > ring_b {
+                    continue;
+                }
+                let (_, g, b) = img.rgb(x as usize, y as usize);
+                if g >= CLIPPED || b >= CLIPPED {
+                    continue;
+                }
+                let (g, b) = (g as f64, b as f64);
+                n += 1.0;
+                sb += b;
+                sg += g;
+                sbb += b * b;
+                sbg += b * g;
+            }
+        }
+        if n < 12.0 {
+            return None;
+        }
+        let var_b = sbb / n - (sb / n).powi(2);
+        // A uniform ring gives no slope: fall back to a constant background.
+        let slope = if var_b > 4.0 { ((sbg / n - sb / n * sg / n) / var_b).clamp(0.0, 3.0) } else { 0.0 };
+        let offset = sg / n - slope * sb / n;
+        let residual = |g: f64, b: f64| g - (offset + slope * b);
+        let mut ss = 0.0;
+        for y in y0..=y1 {
+            for x in x0..=x1 {
+                let d = ((x as f64 - c.x).powi(2) + (y as f64 - c.y).powi(2)).sqrt();
+                if d >= ring_a && d <= ring_b {
+                    let (_, g, b) = img.rgb(x as usize, y as usize);
+                    ss += residual(g as f64, b as f64).powi(2);
+                }
+            }
+        }
+        let floor = 2.0 * (ss / n).sqrt();
+        let mut peak = 0f64;
+        let mut acc = (0f64, 0f64, 0f64);
+        let mut saturated = Vec::new();
+        for y in y0..=y1 {
+            for x in x0..=x1 {
+                let d = ((x as f64 - c.x).powi(2) + (y as f64 - c.y).powi(2)).sqrt();
+                if d > r_in {
+                    continue;
+                }
+                let (_, g, b) = img.rgb(x as usize, y as usize);
+                if g >= CLIPPED {
+                    saturated.push((x as f64, y as f64));
+                    continue;
+                }
+                let e = residual(g as f64, b as f64);
+                peak = peak.max(e);
+                let w = e - floor;
+                if w > 0.0 {
+                    acc = (acc.0 + w, acc.1 + w * x as f64, acc.2 + w * y as f64);
+                }
+            }
+        }
+        // A faint dot (nothing clipped) is found better by a matched filter than by a
+        // thresholded centroid, whose few surviving pixels are at the noise's mercy.
+        if saturated.is_empty() {
+            let found = matched_filter_peak(img, c, r_in, blob_radius_px, &residual)?;
+            let moved = (found - c).norm();
+            c = found;
+            if moved > r_in {
+                return None;
+            }
+            if moved < 1e-3 {
+                break;
+            }
+            continue;
+        }
+        // The clipped core carries at least the brightest unclipped level.
+        let core_w = (peak - floor).max(1.0);
+        for (x, y) in saturated {
+            acc = (acc.0 + core_w, acc.1 + core_w * x, acc.2 + core_w * y);
+        }
+        if acc.0 <= 0.0 {
+            return None;
+        }
+        let next = Vec2::new(acc.1 / acc.0, acc.2 / acc.0);
+        let moved = (next - c).norm();
+        c = next;
+        if moved > r_in {
+            return None;
+        }
+        if moved < 1e-3 {
+            break;
+        }
+    }
+    Some(c)
+}
+
+/// Location of the peak of the dot signal `signal(G, B)` smoothed by a Gaussian the size of
+/// the dot, within `reach` of `c`, to sub-pixel by a quadratic through the peak's
+/// neighbours. For a known spot shape in white noise this is the maximum-likelihood centre.
+fn matched_filter_peak(img: &ColourView, c: Vec2, reach: f64, blob_radius_px: f64, signal: &dyn Fn(f64, f64) -> f64) -> Option<Vec2> {
+    let sigma = (0.7 * blob_radius_px).clamp(1.0, 4.0);
+    let k = (3.0 * sigma).ceil() as i64;
+    let half = reach.ceil() as i64 + k + 1;
+    let (cx, cy) = (c.x.round() as i64, c.y.round() as i64);
+    if cx - half < 0 || cy - half < 0 || cx + half >= img.width as i64 || cy + half >= img.height as i64 {
+        return None;
+    }
+    let n = (2 * half + 1) as usize;
+    let mut e = vec![0f64; n * n];
+    for y in 0..n {
+        for x in 0..n {
+            let (_, g, b) = img.rgb((cx - half) as usize + x, (cy - half) as usize + y);
+            e[y * n + x] = signal(g as f64, b as f64);
+        }
+    }
+    let kernel: Vec<f64> = (-k..=k).map(|i| (-0.5 * (i as f64 / sigma).powi(2)).exp()).collect();
+    let smooth = |data: &[f64], horizontal: bool| -> Vec<f64> {
+        let mut out = vec![0f64; n * n];
+        for y in 0..n {
+            for x in 0..n {
+                let mut acc = 0.0;
+                for (t, w) in kernel.iter().enumerate() {
+                    let o = t as i64 - k;
+                    let (xx, yy) = if horizontal { (x as i64 + o, y as i64) } else { (x as i64, y as i64 + o) };
+                    if xx >= 0 && yy >= 0 && (xx as usize) < n && (yy as usize) < n {
+                        acc += w * data[yy as usize * n + xx as usize];
+                    }
+                }
+                out[y * n + x] = acc;
+            }
+        }
+        out
+    };
+    let f = smooth(&smooth(&e, true), false);
+    let lim = reach.ceil() as i64;
+    let (mut best, mut bx, mut by) = (f64::NEG_INFINITY, 0i64, 0i64);
+    for dy in -lim..=lim {
+        for dx in -lim..=lim {
+            if (dx * dx + dy * dy) as f64 > reach * reach {
+                continue;
+            }
+            let v = f[((half + dy) as usize) * n + (half + dx) as usize];
+            if v > best {
+                (best, bx, by) = (v, dx, dy);
+            }
+        }
+    }
+    let at = |dx: i64, dy: i64| f[((half + dy) as usize) * n + (half + dx) as usize];
+    let vertex = |m: f64, z: f64, p: f64| {
+        let d = m - 2.0 * z + p;
+        if d < 0.0 { (0.5 * (m - p) / d).clamp(-0.5, 0.5) } else { 0.0 }
+    };
+    let ox = vertex(at(bx - 1, by), best, at(bx + 1, by));
+    let oy = vertex(at(bx, by - 1), best, at(bx, by + 1));
+    Some(Vec2::new((cx + bx) as f64 + ox, (cy + by) as f64 + oy))
 }
 
 #[allow(clippy::too_many_arguments)]

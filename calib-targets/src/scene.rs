@@ -138,7 +138,7 @@ pub struct DotTruth {
     pub point_m: [f64; 3],
     pub depth_m: f64,
     pub on_black_square: bool,
-    /// Whether the core is clipped to white.
+    /// Whether the core is clipped to white in all three channels.
     pub saturated: bool,
 }
 
@@ -221,7 +221,7 @@ const ILLUMINATION: f64 = 265.0;
 const BACKGROUND_RANGE_M: f64 = 7.0;
 /// Laser: radiance of the dot on white at zero range before divergence, 8-bit levels; the
 /// beam's diameter at the exit and its full divergence.
-const LASER_RADIANCE: f64 = 2600.0;
+const LASER_RADIANCE: f64 = 1200.0;
 const BEAM_DIAMETER_M: f64 = 0.003;
 const BEAM_DIVERGENCE_RAD: f64 = 0.0008;
 /// How a 532 nm dot lands in the camera's channels (colour filter cross-talk).
@@ -446,7 +446,10 @@ pub fn render(spec: &SceneSpec) -> RenderedScene {
                         point_m: [hit.x, hit.y, hit.z],
                         depth_m: hit.z,
                         on_black_square: on_black,
-                        saturated: colour[0] >= 255.0,
+                        saturated: {
+                            let c = img[(px.y.round() as usize).min(h - 1) * w + (px.x.round() as usize).min(w - 1)];
+                            c.iter().all(|&v| v >= 255.0)
+                        },
                     });
                 }
             }
