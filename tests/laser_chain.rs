@@ -165,6 +165,7 @@ fn photos_without_board_or_unreadable_are_skipped_with_a_reason() {
     eprintln!("reasons: {reasons:?}");
     assert!(cal.photos[6..].iter().all(|p| p.status == "skipped"));
     assert!(reasons[0].contains("no 14x10 checkerboard"), "{}", reasons[0]);
+    assert!(reasons[1].contains("truncated JPEG"), "{}", reasons[1]);
     assert!(reasons[2].contains("unreadable") || reasons[2].contains("not a readable image"), "{}", reasons[2]);
     assert_eq!(cal.fit.used, 6);
 }

@@ -19,6 +19,8 @@ pub enum VisionError {
     Io { path: String, source: std::io::Error },
     #[error("{path}: not a readable image (corrupt, truncated, or not JPEG/PNG/TIFF)")]
     Undecodable { path: String },
+    #[error("{path}: truncated JPEG (no end-of-image marker); copy the file from the card again")]
+    Truncated { path: String },
     #[error("{path}: OpenCV failed: {message}")]
     OpenCv { path: String, message: String },
 }
@@ -47,6 +49,13 @@ impl<'p> EncodedPhoto<'p> {
         let bytes = std::fs::read(path).map_err(|source| VisionError::Io { path: path.display().to_string(), source })?;
         if bytes.is_empty() {
             return Err(VisionError::Undecodable { path: path.display().to_string() });
+        }
+        // libjpeg fills a truncated JPEG's missing rows with grey and calls it a photo; a
+        // half-copied file must say so instead of "no board found".
+        let is_jpeg = bytes.starts_with(&[0xFF, 0xD8]);
+        let tail = &bytes[bytes.len().saturating_sub(64)..];
+        if is_jpeg && !tail.windows(2).any(|w| w == [0xFF, 0xD9]) {
+            return Err(VisionError::Truncated { path: path.display().to_string() });
         }
         Ok(EncodedPhoto { path, buf: Vector::from_slice(&bytes) })
     }
