@@ -7,7 +7,7 @@
 //! found nothing usable get a second, more sensitive look near where the first fit says the
 //! dot must be, and the fit is repeated.
 
-use crate::dot::{find_dot_candidates, DotCandidate, DotDetectorParams, SearchRegion};
+use crate::dot::{find_dot_candidates, ChannelOrder, ColourView, DotCandidate, DotDetectorParams, SearchRegion};
 use crate::laser_fit::{self, DotObservation, FitError, Gates, LaserFit, Method};
 use crate::vision::{self, EncodedPhoto, Photo, TargetPose};
 use calib_targets::Checkerboard;
@@ -43,6 +43,51 @@ pub struct PhotoEvidence {
     pub dot_source: DotSource,
     /// Reduction factor the board was found at (4 = quarter size).
     pub found_at_factor: u32,
+    /// The board's pixels, kept when small, so a second look for the dot needs no second
+    /// decode of the whole photo.
+    board_pixels: Option<PixelCrop>,
+}
+
+/// A rectangle of a photo's colour pixels (BGR), in full-image coordinates.
+#[derive(Clone, Debug)]
+struct PixelCrop {
+    x0: usize,
+    y0: usize,
+    width: usize,
+    height: usize,
+    data: Vec<u8>,
+}
+
+/// Largest board crop kept per photo (pixels): far boards, whose faint dots are the ones
+/// that need a second look, are far smaller; near boards' dots are found at once.
+const MAX_KEPT_CROP_PX: usize = 4_000_000;
+
+impl PixelCrop {
+    fn of(view: &ColourView, outline: &[Vec2]) -> Option<PixelCrop> {
+        let pad = 8.0;
+        let x0 = (outline.iter().map(|p| p.x).fold(f64::INFINITY, f64::min) - pad).max(0.0) as usize;
+        let y0 = (outline.iter().map(|p| p.y).fold(f64::INFINITY, f64::min) - pad).max(0.0) as usize;
+        let x1 = ((outline.iter().map(|p| p.x).fold(f64::NEG_INFINITY, f64::max) + pad) as usize).min(view.width);
+        let y1 = ((outline.iter().map(|p| p.y).fold(f64::NEG_INFINITY, f64::max) + pad) as usize).min(view.height);
+        if x1 <= x0 || y1 <= y0 || (x1 - x0) * (y1 - y0) > MAX_KEPT_CROP_PX {
+            return None;
+        }
+        let (width, height) = (x1 - x0, y1 - y0);
+        let mut data = Vec::with_capacity(width * height * 3);
+        for y in y0..y1 {
+            let row = y * view.stride + 3 * x0;
+            data.extend_from_slice(view.data.get(row..row + 3 * width)?);
+        }
+        Some(PixelCrop { x0, y0, width, height, data })
+    }
+
+    fn view(&self) -> ColourView<'_> {
+        ColourView { width: self.width, height: self.height, stride: self.width * 3, order: ChannelOrder::Bgr, data: &self.data }
+    }
+
+    fn offset(&self) -> Vec2 {
+        Vec2::new(self.x0 as f64, self.y0 as f64)
+    }
 }
 
 /// Outcome of the per-photo stage: evidence, or the reason the photo cannot be used.
@@ -222,7 +267,9 @@ pub fn examine_photo(job: &LaserJob, path: &Path) -> Result<PhotoResult, LaserEr
             (find_dot_candidates(&photo.colour(), &region, &job.detector, 8), DotSource::Detected)
         }
     };
+    let board_pixels = PixelCrop::of(&photo.colour(), &outline);
     Ok(Ok(PhotoEvidence {
+        board_pixels,
         image_size: (w, h),
         pose,
         board_outline_px: outline,
@@ -264,7 +311,6 @@ fn search_near_prediction(job: &LaserJob, path: &Path, evidence: &PhotoEvidence,
             predicted + Vec2::new(a.cos(), a.sin()) * radius / (std::f64::consts::PI / 8.0).cos()
         })
         .collect();
-    let photo: Photo = EncodedPhoto::read(path).ok()?.decode_full().ok()?;
     let sensitive = DotDetectorParams {
         threshold_sigma: 3.5,
         min_excess_levels: 5.0,
@@ -272,8 +318,31 @@ fn search_near_prediction(job: &LaserJob, path: &Path, evidence: &PhotoEvidence,
         background_radius_px: job.detector.background_radius_px,
         max_area_px: job.detector.max_area_px,
     };
-    let region = SearchRegion { polygon, band: Some((vec![predicted], radius)) };
-    find_dot_candidates(&photo.colour(), &region, &sensitive, 1).into_iter().next()
+    let search = |view: &ColourView, offset: Vec2| {
+        let region = SearchRegion {
+            polygon: polygon.iter().map(|p| p - offset).collect(),
+            band: Some((vec![predicted - offset], radius)),
+        };
+        find_dot_candidates(view, &region, &sensitive, 1).into_iter().next().map(|mut c| {
+            c.pixel += offset;
+            c
+        })
+    };
+    // The kept board pixels serve when the search disc (plus the background window) lies
+    // inside them; otherwise decode the photo again.
+    if let Some(crop) = &evidence.board_pixels {
+        let margin = radius + sensitive.background_radius_px as f64;
+        let o = crop.offset();
+        let inside = predicted.x - margin >= o.x
+            && predicted.y - margin >= o.y
+            && predicted.x + margin <= o.x + crop.width as f64
+            && predicted.y + margin <= o.y + crop.height as f64;
+        if inside {
+            return search(&crop.view(), o);
+        }
+    }
+    let photo: Photo = EncodedPhoto::read(path).ok()?.decode_full().ok()?;
+    search(&photo.colour(), Vec2::zeros())
 }
 
 /// Runs the whole chain. `progress` is called once per photo examined.
