@@ -563,6 +563,31 @@ fn board_in_frame(camera: &CameraModel, board: &Checkerboard, pose: &Pose, margi
     })
 }
 
+/// Tries up to 600 random board orientations, each placed by `place` (which returns the
+/// translation for a rotation and an "ease" running from 1 down to 0 as attempts fail, so
+/// placements can get tamer), until the whole board is in the frame; falls back to a
+/// face-on board at `fallback_m`.
+fn search_pose(
+    rng: &mut SplitMix,
+    camera: &CameraModel,
+    board: &Checkerboard,
+    margin_px: f64,
+    mut place: impl FnMut(&mut SplitMix, f64, &nalgebra::Matrix3<f64>) -> Option<Vec3>,
+    fallback_m: Vec3,
+) -> Pose {
+    for attempt in 0..600 {
+        // Shrink the tilt as attempts fail: up close the board only just fits.
+        let ease = 1.0 - attempt as f64 / 600.0;
+        let r = random_rotation(rng, 35.0 * ease, 15.0 * ease);
+        let Some(t) = place(rng, ease, &r) else { continue };
+        let pose = Pose { rotation: to_rows(&r), translation_m: [t.x, t.y, t.z] };
+        if board_in_frame(camera, board, &pose, margin_px) {
+            return pose;
+        }
+    }
+    Pose { rotation: to_rows(&nalgebra::Matrix3::identity()), translation_m: [fallback_m.x, fallback_m.y, fallback_m.z] }
+}
+
 /// A dive's laser calibration photos: the FishSense board from 0.6 to 4.5 m (evenly spread,
 /// jittered), tilted up to 35 degrees, turned up to 15 degrees in its plane, placed so that
 /// the TG-6 rig's laser dot lands on it at a random spot (about a third on black squares),
@@ -580,11 +605,8 @@ pub fn laser_scene_set(count: usize, seed: u64, water: Water, glints: u32) -> Ve
             let depth = (0.6 + 3.9 * t + rng.range(-0.05, 0.05)).clamp(0.6, 4.5);
             let hit = laser.point_at_depth(depth);
             let want_black = rng.unit() < 1.0 / 3.0;
-            let mut chosen = None;
-            for attempt in 0..600 {
-                // Shrink the tilt as attempts fail: up close the board only just fits.
-                let ease = 1.0 - attempt as f64 / 600.0;
-                let r = random_rotation(&mut rng, 35.0 * ease, 15.0 * ease);
+            let centre = Vec3::new(0.5 * (board.inner_cols - 1) as f64 * s, 0.5 * (board.inner_rows - 1) as f64 * s, 0.0);
+            let place = |rng: &mut SplitMix, _ease: f64, r: &nalgebra::Matrix3<f64>| {
                 let (i_sq, j_sq) = loop {
                     let i_sq = rng.below(board.inner_cols as u64 + 1) as i64;
                     let j_sq = rng.below(board.inner_rows as u64 + 1) as i64;
@@ -593,19 +615,10 @@ pub fn laser_scene_set(count: usize, seed: u64, water: Water, glints: u32) -> Ve
                     }
                 };
                 let on_board = Vec3::new((i_sq - 1) as f64 * s + rng.range(0.2, 0.8) * s, (j_sq - 1) as f64 * s + rng.range(0.2, 0.8) * s, 0.0);
-                let translation = hit - r * on_board;
-                let pose = Pose { rotation: to_rows(&r), translation_m: [translation.x, translation.y, translation.z] };
-                if board_in_frame(&camera, &board, &pose, 30.0) {
-                    chosen = Some(pose);
-                    break;
-                }
-            }
-            let pose = chosen.unwrap_or_else(|| {
-                // Last resort: face-on with the dot wherever the board's centre puts it.
-                let centre = Vec3::new(0.5 * (board.inner_cols - 1) as f64 * s, 0.5 * (board.inner_rows - 1) as f64 * s, 0.0);
-                let t = hit - centre;
-                Pose { rotation: to_rows(&nalgebra::Matrix3::identity()), translation_m: [t.x, t.y, t.z] }
-            });
+                Some(hit - r * on_board)
+            };
+            // Last resort: face-on with the dot wherever the board's centre puts it.
+            let pose = search_pose(&mut rng, &camera, &board, 30.0, place, hit - centre);
             SceneSpec {
                 camera,
                 laser: Some(laser),
@@ -633,27 +646,15 @@ pub fn camera_scene_set(count: usize, seed: u64, water: Water) -> Vec<SceneSpec>
             let depth = 0.5 + 1.1 * ((i as f64 + rng.unit()) / count as f64);
             let cell = i % 9;
             let (cu, cv) = ((cell % 3) as f64, (cell / 3) as f64);
-            let mut chosen = None;
-            for attempt in 0..600 {
-                let ease = 1.0 - attempt as f64 / 600.0;
-                let r = random_rotation(&mut rng, 35.0 * ease, 15.0 * ease);
+            let place = |rng: &mut SplitMix, ease: f64, r: &nalgebra::Matrix3<f64>| {
                 // Aim the board's centre at its cell, drifting to the middle as attempts fail.
                 let u = camera.width_px as f64 * (0.5 + ease * ((cu + 0.5) / 3.0 - 0.5) * 1.3 + rng.range(-0.03, 0.03));
                 let v = camera.height_px as f64 * (0.5 + ease * ((cv + 0.5) / 3.0 - 0.5) * 1.3 + rng.range(-0.03, 0.03));
-                let Some(n) = camera.undistort(Vec2::new(u, v)) else { continue };
+                let n = camera.undistort(Vec2::new(u, v))?;
                 let depth = depth.max(0.5 + 0.6 * (1.0 - ease));
-                let aim = Vec3::new(n.x, n.y, 1.0) * depth;
-                let translation = aim - r * centre;
-                let pose = Pose { rotation: to_rows(&r), translation_m: [translation.x, translation.y, translation.z] };
-                if board_in_frame(&camera, &board, &pose, 10.0) {
-                    chosen = Some(pose);
-                    break;
-                }
-            }
-            let pose = chosen.unwrap_or_else(|| {
-                let t = Vec3::new(0.0, 0.0, 1.2) - centre;
-                Pose { rotation: to_rows(&nalgebra::Matrix3::identity()), translation_m: [t.x, t.y, t.z] }
-            });
+                Some(Vec3::new(n.x, n.y, 1.0) * depth - r * centre)
+            };
+            let pose = search_pose(&mut rng, &camera, &board, 10.0, place, Vec3::new(0.0, 0.0, 1.2) - centre);
             SceneSpec { camera, laser: None, board: Some((board, pose)), water, glints: 0, impostor: false, seed: seed.wrapping_mul(1000).wrapping_add(500 + i as u64) }
         })
         .collect()
