@@ -5,6 +5,7 @@
 //! reading camera files, the OpenCV-backed vision module, and the CLI.
 
 pub mod atomic_file;
+pub mod calibration;
 pub mod camera_file;
 pub mod cli;
 pub mod dot;

@@ -68,6 +68,11 @@ fn json_has_the_documented_keys_and_out_is_written() {
     }
     let written: serde_json::Value = serde_json::from_slice(&std::fs::read(&out).unwrap()).unwrap();
     assert_eq!(written["laser"], v["laser"]);
+    // The written result is itself a calibration the measuring commands take as `--cal`.
+    let cal = fslcal::calibration::load(&out).expect("--out is a usable --cal");
+    assert_eq!(cal.camera.width_px, 4000);
+    assert!((cal.laser.origin_m[0] - truth.origin_m[0]).abs() < 0.002);
+    assert!(cal.distance_sigma_m(3.0).unwrap() > 0.0);
 }
 
 #[test]

@@ -8,7 +8,8 @@ use crate::laser_calibration::{calibrate, HandDots, LaserCalibration, LaserError
 use crate::laser_fit::{Gates, Method};
 use anyhow::{bail, Context};
 use calib_targets::Checkerboard;
-use fslcal_core::Vec2;
+use crate::calibration::camera_json;
+use fslcal_core::{CameraModel, Vec2};
 use serde_json::json;
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
@@ -142,7 +143,7 @@ pub fn run(args: LaserArgs) -> anyhow::Result<ExitCode> {
         }
         Err(e) => return Err(e.into()),
     };
-    let report = json_report(&args, &cal);
+    let report = json_report(&args, &job.camera, &cal);
     if args.json {
         println!("{}", serde_json::to_string_pretty(&report)?);
     } else {
@@ -165,12 +166,14 @@ pub fn run(args: LaserArgs) -> anyhow::Result<ExitCode> {
     Ok(ExitCode::SUCCESS)
 }
 
-fn json_report(args: &LaserArgs, cal: &LaserCalibration) -> serde_json::Value {
+fn json_report(args: &LaserArgs, camera: &CameraModel, cal: &LaserCalibration) -> serde_json::Value {
     let f = &cal.fit;
     let sigma: serde_json::Map<String, serde_json::Value> =
         f.distance_sigma_m.iter().map(|(z, s)| (format!("{z}"), json!(s))).collect();
     json!({
-        "camera": args.camera.display().to_string(),
+        "camera_file": args.camera.display().to_string(),
+        // The intrinsics themselves, so that the result alone is a usable `--cal`.
+        "camera": camera_json(camera),
         "target": args.target.to_string(),
         "method": f.method,
         "laser": {

@@ -1,0 +1,172 @@
+//! A unit's calibration as the commands that *use* one see it (`--cal CAL`): the camera, the
+//! laser line and the laser's covariance, whichever file they came from.
+//!
+//! Today that is the JSON `fslcal laser --out` writes; the signed `.fslcal` unit file reads
+//! into the same struct, so `validate`, `check` and `measure` never care which they were given.
+
+use crate::laser_fit::distance_sigma;
+use fslcal_core::{CameraModel, Distortion, LaserLine};
+use nalgebra::Matrix4;
+use serde::Deserialize;
+use std::path::{Path, PathBuf};
+
+/// Everything a command needs to turn a dot pixel into a distance and pixels into lengths.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Calibration {
+    pub camera: CameraModel,
+    pub laser: LaserLine,
+    /// Covariance of (origin x m, origin y m, direction x/z, direction y/z), as
+    /// `laser_fit::LaserFit::covariance`.
+    pub laser_covariance: [[f64; 4]; 4],
+    /// Depths the calibration's dots covered, metres: distances outside are extrapolation.
+    pub depth_range_m: Option<(f64, f64)>,
+    /// `FSL-NN`, when the file names its unit.
+    pub unit: Option<String>,
+    /// Camera body serial, when the file records it.
+    pub camera_serial: Option<String>,
+    pub source: PathBuf,
+}
+
+impl Calibration {
+    /// 1-sigma distance error from the calibration alone for a dot at depth `z_m`.
+    pub fn distance_sigma_m(&self, z_m: f64) -> Option<f64> {
+        distance_sigma(&self.camera, &self.laser, &Matrix4::from(self.laser_covariance).transpose(), z_m)
+    }
+}
+
+#[derive(Debug, thiserror::Error)]
+pub enum CalibrationError {
+    #[error("{path}: cannot read the calibration: {source}")]
+    Io { path: String, source: std::io::Error },
+    #[error("{path}: not a calibration file (expected the JSON `fslcal laser --out` writes, or a signed .fslcal); {why}")]
+    NotACalibration { path: String, why: String },
+    #[error("{path}: the calibration is implausible ({why}); re-run `fslcal laser`")]
+    Implausible { path: String, why: String },
+}
+
+/// The camera block of `fslcal laser --out`, keyed as `fslcal camera --json` prints it.
+#[derive(Deserialize)]
+struct CameraJson {
+    image_size: [u32; 2],
+    fx: f64,
+    fy: f64,
+    cx: f64,
+    cy: f64,
+    dist: [f64; 5],
+}
+
+#[derive(Deserialize)]
+struct LaserJson {
+    origin_m: [f64; 3],
+    direction: [f64; 3],
+    covariance: [[f64; 4]; 4],
+}
+
+#[derive(Deserialize)]
+struct LaserResultJson {
+    camera: CameraJson,
+    laser: LaserJson,
+    depth_range_m: Option<(f64, f64)>,
+    unit: Option<String>,
+    camera_serial: Option<String>,
+}
+
+/// The `camera` object every JSON output uses: `image_size` [w, h] and `fx`, `fy`, `cx`, `cy`
+/// in pixels, `dist` as OpenCV's `[k1, k2, p1, p2, k3]`.
+pub fn camera_json(c: &CameraModel) -> serde_json::Value {
+    serde_json::json!({
+        "image_size": [c.width_px, c.height_px],
+        "fx": c.fx_px, "fy": c.fy_px, "cx": c.cx_px, "cy": c.cy_px,
+        "dist": c.distortion.to_opencv(),
+    })
+}
+
+/// Reads a calibration from `path`.
+pub fn load(path: &Path) -> Result<Calibration, CalibrationError> {
+    let name = path.display().to_string();
+    let bytes = std::fs::read(path).map_err(|source| CalibrationError::Io { path: name.clone(), source })?;
+    parse_laser_json(&bytes, path)
+}
+
+fn parse_laser_json(bytes: &[u8], path: &Path) -> Result<Calibration, CalibrationError> {
+    let name = path.display().to_string();
+    let r: LaserResultJson = serde_json::from_slice(bytes)
+        .map_err(|e| CalibrationError::NotACalibration { path: name.clone(), why: e.to_string() })?;
+    let c = r.camera;
+    let camera = CameraModel {
+        width_px: c.image_size[0],
+        height_px: c.image_size[1],
+        fx_px: c.fx,
+        fy_px: c.fy,
+        cx_px: c.cx,
+        cy_px: c.cy,
+        distortion: Distortion::from_opencv(c.dist),
+    };
+    if !camera.is_plausible() {
+        return Err(CalibrationError::Implausible { path: name, why: "camera intrinsics out of range".into() });
+    }
+    let laser = LaserLine::from_point_direction(
+        fslcal_core::Vec3::from(r.laser.origin_m),
+        fslcal_core::Vec3::from(r.laser.direction),
+    )
+    .ok_or_else(|| CalibrationError::Implausible { path: name.clone(), why: "laser direction not forward".into() })?;
+    if r.laser.covariance.iter().flatten().any(|v| !v.is_finite()) {
+        return Err(CalibrationError::Implausible { path: name, why: "laser covariance not finite".into() });
+    }
+    Ok(Calibration {
+        camera,
+        laser,
+        laser_covariance: r.laser.covariance,
+        depth_range_m: r.depth_range_m,
+        unit: r.unit,
+        camera_serial: r.camera_serial,
+        source: path.to_path_buf(),
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn example() -> serde_json::Value {
+        let camera = CameraModel {
+            width_px: 4000,
+            height_px: 3000,
+            fx_px: 2900.0,
+            fy_px: 2901.0,
+            cx_px: 1999.5,
+            cy_px: 1499.5,
+            distortion: Distortion::from_opencv([-0.1, 0.03, 0.001, -0.002, 0.0]),
+        };
+        serde_json::json!({
+            "camera": camera_json(&camera),
+            "laser": {
+                "origin_m": [-0.04, -0.105, 0.0],
+                "direction": [0.0105, 0.022, 0.9997],
+                "covariance": [[1e-8, 0.0, 0.0, 0.0], [0.0, 1e-8, 0.0, 0.0], [0.0, 0.0, 1e-9, 0.0], [0.0, 0.0, 0.0, 1e-9]],
+            },
+            "depth_range_m": [0.6, 4.5],
+        })
+    }
+
+    #[test]
+    fn reads_what_laser_out_writes() {
+        let text = serde_json::to_vec(&example()).unwrap();
+        let cal = parse_laser_json(&text, Path::new("x.json")).unwrap();
+        assert_eq!(cal.camera.fy_px, 2901.0);
+        assert_eq!(cal.camera.distortion.p2, -0.002);
+        assert!((cal.laser.dir().norm() - 1.0).abs() < 1e-12);
+        assert_eq!(cal.depth_range_m, Some((0.6, 4.5)));
+        // Depth sigma grows with depth for a fixed covariance.
+        let (a, b) = (cal.distance_sigma_m(1.0).unwrap(), cal.distance_sigma_m(4.0).unwrap());
+        assert!(a > 0.0 && b > 4.0 * a, "{a} {b}");
+    }
+
+    #[test]
+    fn refuses_other_json_with_the_file_name() {
+        let err = parse_laser_json(br#"{"photos": []}"#, Path::new("other.json")).unwrap_err();
+        let msg = err.to_string();
+        assert!(msg.starts_with("other.json: not a calibration file"), "{msg}");
+        assert!(!msg.contains('\n'));
+    }
+}
