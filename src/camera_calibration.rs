@@ -6,7 +6,7 @@
 //! (`vision::calibrate_intrinsics`), cull outlier corners and photos (`camera_fit::cull`),
 //! and solve again until nothing changes.
 
-use crate::camera_fit::{coverage, cull, one_sigma_from_opencv46, residuals_px, rms_px, robust_sigma_px, Coverage, Inliers, OutlierRules, ViewPoints};
+use crate::camera_fit::{coverage, cull, one_sigma_from_opencv46, corner_limit_px, residuals_px, rms_px, Coverage, Inliers, OutlierRules, ViewPoints};
 use crate::vision::{self, EncodedPhoto, SolveOptions, VisionError};
 use calib_targets::Checkerboard;
 use fslcal_core::{CameraModel, Vec2, Vec3};
@@ -58,6 +58,8 @@ pub struct CameraPhotoReport {
     pub worst_px: Option<f64>,
     pub corners_used: Option<usize>,
     pub corners_found: Option<usize>,
+    /// Residual length beyond which this photo's corners were outliers.
+    pub corner_limit_px: Option<f64>,
 }
 
 /// Everything `fslcal camera` reports.
@@ -79,8 +81,8 @@ pub struct CameraCalibration {
     /// "x of N" over the used photos' corners, and over the photos with a board.
     pub corner_outliers: (usize, usize),
     pub photo_outliers: (usize, usize),
-    /// Residual length above which a corner was an outlier in the last round.
-    pub corner_limit_px: f64,
+    /// A corner was an outlier beyond this many of its photo's robust sigmas.
+    pub k_corner: f64,
     pub coverage: Coverage,
     pub photos: Vec<CameraPhotoReport>,
     /// Solves run (1 when nothing was culled).
@@ -206,6 +208,7 @@ fn report(
             worst_px: None,
             corners_used: None,
             corners_found: None,
+            corner_limit_px: None,
         })
         .collect();
     let mut inlier_lengths = Vec::new();
@@ -224,6 +227,7 @@ fn report(
                 r.rms_px = Some(rms_px(kept.iter().copied()));
                 r.worst_px = Some(worst);
                 r.corners_used = Some(kept.len());
+                r.corner_limit_px = Some(corner_limit_px(lengths, &job.rules));
                 inlier_lengths.extend(kept);
             }
             None => {
@@ -255,7 +259,7 @@ fn report(
         worst_photo,
         corner_outliers: (all_corners - points, all_corners),
         photo_outliers: (rejected, found.len()),
-        corner_limit_px: job.rules.k_corner * robust_sigma_px(&inlier_lengths),
+        k_corner: job.rules.k_corner,
         coverage: cov,
         photos: reports,
         solves: fit.solves,

@@ -2,7 +2,7 @@
 //! (solver only), and OpenCV's sample photos (detection, refinement, culling and solve).
 
 use calib_targets::Checkerboard;
-use fslcal::camera_calibration::{calibrate, CameraCalibration, CameraJob};
+use fslcal::camera_calibration::{calibrate, solve_views, CameraCalibration, CameraJob};
 use fslcal::camera_fit::{one_sigma_from_opencv46, ViewPoints};
 use fslcal::camera_file;
 use fslcal::vision::{calibrate_intrinsics, SolveOptions};
@@ -111,6 +111,48 @@ fn independent_sigma(views: &[ViewPoints], s: &fslcal::vision::IntrinsicsSolve) 
     let sigma2 = r0.norm_squared() / (r0.len() - p.len()) as f64;
     let cov = (j.transpose() * &j).try_inverse().unwrap() * sigma2;
     [0, 1, 2, 3].map(|k| cov[(k, k)].sqrt())
+}
+
+#[test]
+fn culling_removes_injected_bad_corners_and_a_misdetected_view() {
+    let mut views = calib1_views();
+    // Three corners of view 3 pulled 2 px off (a glint, a smudge) ...
+    for k in [5, 17, 30] {
+        views[3].image_px[k] += Vec2::new(1.6, -1.2);
+    }
+    // ... and view 5's last two rows of corners a square-fifth off (a misdetected board).
+    for k in 21..35 {
+        views[5].image_px[k] += Vec2::new(0.0, 3.0);
+    }
+    let job = CameraJob { solve: SolveOptions { fix_k3: true }, ..CameraJob::new("7x5@25.4mm".parse().unwrap()) };
+    let fit = solve_views(&job, &views, (640, 480)).unwrap();
+    let c = &fit.solve.camera;
+    let culled: Vec<(usize, usize)> = fit
+        .inliers
+        .corners
+        .iter()
+        .enumerate()
+        .flat_map(|(v, k)| k.iter().enumerate().filter(|(_, k)| !**k).map(move |(i, _)| (v, i)))
+        .filter(|(v, _)| fit.inliers.views[*v])
+        .collect();
+    eprintln!(
+        "calib1 with injected outliers: views used {:?}, corners culled {culled:?}, {} solves; fx {:.3} fy {:.3} cx {:.3} cy {:.3}",
+        fit.inliers.views, fit.solves, c.fx_px, c.fy_px, c.cx_px, c.cy_px
+    );
+    assert!(!fit.inliers.views[5], "the misdetected view goes");
+    assert_eq!(fit.inliers.views.iter().filter(|u| !**u).count(), 1);
+    assert_eq!(culled, vec![(3, 5), (3, 17), (3, 30)]);
+    // The answer is the clean data's without view 5 and those three corners.
+    let mut clean = calib1_views();
+    clean.remove(5);
+    for k in [30, 17, 5] {
+        clean[3].image_px.remove(k);
+        clean[3].object_m.remove(k);
+    }
+    let reference = calibrate_intrinsics(&clean, (640, 480), SolveOptions { fix_k3: true }).unwrap().camera;
+    for (a, b) in [(c.fx_px, reference.fx_px), (c.fy_px, reference.fy_px), (c.cx_px, reference.cx_px), (c.cy_px, reference.cy_px)] {
+        assert!((a - b).abs() < 1e-3, "{a} vs {b}");
+    }
 }
 
 fn left_set() -> &'static CameraCalibration {
