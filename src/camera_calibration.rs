@@ -32,8 +32,9 @@ impl CameraJob {
 
 #[derive(Debug, thiserror::Error)]
 pub enum CameraError {
+    /// The message already names the photo; not a `source`, or `{:#}` would say it twice.
     #[error("{0}; remove the photo or copy it again")]
-    Photo(#[from] VisionError),
+    Photo(VisionError),
     #[error("{file}: {w}x{h}, but {first} is {first_w}x{first_h}; calibrate one camera mode at a time (all photos the size the camera writes, none resized or cropped)")]
     MixedSizes { file: String, w: u32, h: u32, first: String, first_w: u32, first_h: u32 },
     #[error("no {cols}x{rows} checkerboard found in any of the {count} photos; --board counts inner corners (where four squares meet), and the whole board must be in the frame")]
@@ -44,6 +45,12 @@ pub enum CameraError {
     Solve(String),
     #[error("the solve gave an implausible camera (fx {fx:.1}, fy {fy:.1}, cx {cx:.1}, cy {cy:.1} px); tilt the board differently in each photo and cover the frame")]
     Implausible { fx: f64, fy: f64, cx: f64, cy: f64 },
+}
+
+impl From<VisionError> for CameraError {
+    fn from(e: VisionError) -> Self {
+        CameraError::Photo(e)
+    }
 }
 
 /// One photo's line in the report.
