@@ -418,6 +418,7 @@ mod tests {
         let mut buf = [0u8; MAX_FILE_BYTES];
         let n = contents().sign(&EXAMPLE_SECRET_KEY, &mut buf).unwrap();
         assert!(n <= MAX_FILE_BYTES);
+        eprintln!("example file: {n} bytes");
         let pk = public_key(&EXAMPLE_SECRET_KEY);
         let f = verify(&buf[..n], &[pk]).unwrap();
         assert_eq!(f.contents, contents());
