@@ -43,8 +43,8 @@ pub enum CalibrationError {
     NotACalibration { path: String, why: String },
     #[error("{path}: the calibration is implausible ({why}); re-run `fslcal laser`")]
     Implausible { path: String, why: String },
-    #[error("{path}: {source}")]
-    UnitFile { path: String, source: FormatError },
+    #[error("{path}: {cause}")]
+    UnitFile { path: String, cause: FormatError },
 }
 
 /// The camera block of `fslcal laser --out`, keyed as `fslcal camera --json` prints it.
@@ -98,7 +98,7 @@ pub fn load(path: &Path) -> Result<Calibration, CalibrationError> {
 /// Reads a signed unit file whose signature matches its contents (a tampered file is
 /// refused; whether the signer is trusted is for `fslcal verify` to say).
 pub fn parse_unit_file(bytes: &[u8], path: &Path) -> Result<Calibration, CalibrationError> {
-    let err = |source| CalibrationError::UnitFile { path: path.display().to_string(), source };
+    let err = |cause| CalibrationError::UnitFile { path: path.display().to_string(), cause };
     let file = unit_file::SignedUnitFile::decode(bytes).map_err(err)?;
     file.check_signature().map_err(err)?;
     Ok(from_unit_file(&file, path))

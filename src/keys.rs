@@ -16,16 +16,16 @@ const PUBLIC_TAG: &str = "fslcal-ed25519";
 
 #[derive(Debug, thiserror::Error)]
 pub enum KeyError {
-    #[error("{path}: cannot read: {source}")]
-    Io { path: String, source: std::io::Error },
+    #[error("{path}: cannot read: {cause}")]
+    Io { path: String, cause: std::io::Error },
     #[error("{path}: not an fslcal {what} (expected one line `{tag} <64 hex digits>`, as `fslcal keygen` writes)")]
     Malformed { path: String, what: &'static str, tag: &'static str },
     #[error("{path}: no .pub files in this folder; put the trusted signers' public keys there")]
     NoTrustedKeys { path: String },
     #[error("{path}: already exists; a new key would orphan every file the old one signed (remove it first if you mean to)")]
     Exists { path: String },
-    #[error("{path}: cannot write: {source}")]
-    Write { path: String, source: std::io::Error },
+    #[error("{path}: cannot write: {cause}")]
+    Write { path: String, cause: std::io::Error },
     #[error("cannot read random bytes for a new key: {0}")]
     Random(std::io::Error),
 }
@@ -47,7 +47,7 @@ fn unhex32(s: &str) -> Option<[u8; 32]> {
 }
 
 fn read_text(path: &Path) -> Result<String, KeyError> {
-    let bytes = std::fs::read(path).map_err(|source| KeyError::Io { path: path.display().to_string(), source })?;
+    let bytes = std::fs::read(path).map_err(|cause| KeyError::Io { path: path.display().to_string(), cause })?;
     Ok(String::from_utf8_lossy(&bytes).into_owned())
 }
 
@@ -75,11 +75,11 @@ pub fn generate(path: &Path, comment: &str) -> Result<[u8; 32], KeyError> {
     let mut seed = [0u8; 32];
     std::fs::File::open("/dev/urandom").and_then(|mut f| f.read_exact(&mut seed)).map_err(KeyError::Random)?;
     write_atomically_private(path, format!("{SECRET_TAG} {}\n", hex(&seed)).as_bytes())
-        .map_err(|source| KeyError::Write { path: name, source })?;
+        .map_err(|cause| KeyError::Write { path: name, cause })?;
     let public = unit_file::public_key(&seed);
     let pub_path = public_path(path);
     write_atomically(&pub_path, public_key_text(&public, comment).as_bytes())
-        .map_err(|source| KeyError::Write { path: pub_path.display().to_string(), source })?;
+        .map_err(|cause| KeyError::Write { path: pub_path.display().to_string(), cause })?;
     Ok(public)
 }
 
@@ -115,7 +115,7 @@ pub fn read_trusted(path: &Path) -> Result<Vec<TrustedKey>, KeyError> {
     if !path.is_dir() {
         return Ok(vec![TrustedKey { key: read_public(path)?, file: path.to_path_buf() }]);
     }
-    let entries = std::fs::read_dir(path).map_err(|source| KeyError::Io { path: path.display().to_string(), source })?;
+    let entries = std::fs::read_dir(path).map_err(|cause| KeyError::Io { path: path.display().to_string(), cause })?;
     let mut files: Vec<PathBuf> =
         entries.filter_map(|e| e.ok().map(|e| e.path())).filter(|p| p.extension().is_some_and(|e| e == "pub")).collect();
     files.sort();

@@ -10,22 +10,29 @@ use std::path::Path;
 
 #[derive(Debug, thiserror::Error)]
 pub enum UnitFileError {
-    #[error("{path}: cannot read: {source}")]
-    Io { path: String, source: std::io::Error },
-    #[error("{path}: {source}")]
-    Format { path: String, source: FormatError },
+    #[error("{path}: cannot read: {cause}")]
+    Io { path: String, cause: std::io::Error },
+    #[error("{path}: {cause}")]
+    Format { path: String, cause: FormatError },
     #[error(transparent)]
     Key(#[from] KeyError),
-    #[error("{path}: cannot write: {source}")]
-    Write { path: String, source: std::io::Error },
+    #[error("{path}: cannot write: {cause}")]
+    Write { path: String, cause: std::io::Error },
     #[error("unit `{0}` is not a FishSense Lite unit id; expected FSL-NN, e.g. FSL-03 (optionally with the optic letter, FSL-03D)")]
     BadUnitId(String),
+}
+
+impl UnitFileError {
+    /// Names `path` in a format error.
+    pub fn at(path: &Path) -> impl Fn(FormatError) -> UnitFileError + '_ {
+        move |cause| UnitFileError::Format { path: path.display().to_string(), cause }
+    }
 }
 
 /// Reads at most one byte more than a calibration file can hold, so that pointing the tool
 /// at a video by mistake costs nothing (the decoder then calls it what it is).
 pub fn read_bytes(path: &Path) -> Result<Vec<u8>, UnitFileError> {
-    let io = |source| UnitFileError::Io { path: path.display().to_string(), source };
+    let io = |cause| UnitFileError::Io { path: path.display().to_string(), cause };
     let mut bytes = Vec::with_capacity(MAX_FILE_BYTES + 1);
     std::fs::File::open(path).map_err(io)?.take(MAX_FILE_BYTES as u64 + 1).read_to_end(&mut bytes).map_err(io)?;
     Ok(bytes)
@@ -51,8 +58,8 @@ pub fn unit_id(text: &str) -> Result<String, UnitFileError> {
 pub fn sign_to_file(contents: &UnitFile<'_>, key_path: &Path, out: &Path) -> Result<usize, UnitFileError> {
     let secret = keys::read_secret(key_path)?;
     let mut buf = [0u8; MAX_FILE_BYTES];
-    let n = contents.sign(&secret, &mut buf).map_err(|source| UnitFileError::Format { path: out.display().to_string(), source })?;
-    write_atomically(out, &buf[..n]).map_err(|source| UnitFileError::Write { path: out.display().to_string(), source })?;
+    let n = contents.sign(&secret, &mut buf).map_err(UnitFileError::at(out))?;
+    write_atomically(out, &buf[..n]).map_err(|cause| UnitFileError::Write { path: out.display().to_string(), cause })?;
     Ok(n)
 }
 

@@ -24,8 +24,8 @@ pub enum RegistryError {
     UnitFile(#[from] UnitFileError),
     #[error(transparent)]
     Key(#[from] KeyError),
-    #[error("{path}: cannot {what}: {source}")]
-    Io { path: String, what: &'static str, source: std::io::Error },
+    #[error("{path}: cannot {what}: {cause}")]
+    Io { path: String, what: &'static str, cause: std::io::Error },
     #[error("{path}: a different calibration is already filed under this name; nothing written")]
     Conflict { path: String },
     #[error("{path}: not a validation report (expected the JSON of `fslcal validate --json`, with a boolean `pass`)")]
@@ -78,7 +78,7 @@ impl Registry {
     }
 
     fn io<'p>(path: &'p Path, what: &'static str) -> impl FnOnce(std::io::Error) -> RegistryError + 'p {
-        move |source| RegistryError::Io { path: path.display().to_string(), what, source }
+        move |cause| RegistryError::Io { path: path.display().to_string(), what, cause }
     }
 
     /// The registry's trusted keys, or those at `trust` when given.
@@ -91,8 +91,7 @@ impl Registry {
     pub fn add_calibration(&self, file: &Path, trusted: &[TrustedKey]) -> Result<(Filed, String), RegistryError> {
         let bytes = unit_files::read_bytes(file)?;
         let keys: Vec<[u8; 32]> = trusted.iter().map(|t| t.key).collect();
-        let f = unit_file::verify(&bytes, &keys)
-            .map_err(|source| UnitFileError::Format { path: file.display().to_string(), source })?;
+        let f = unit_file::verify(&bytes, &keys).map_err(UnitFileError::at(file))?;
         let unit = unit_id(f.contents.unit)?;
         let dir = self.root.join(&unit);
         std::fs::create_dir_all(&dir).map_err(Self::io(&dir, "create the unit's folder"))?;

@@ -41,7 +41,7 @@ pub fn run(args: ExportArgs) -> anyhow::Result<ExitCode> {
     let ExportFormat::FishsensePkg = args.format;
     let bytes = unit_files::read_bytes(&args.file)?;
     let file = inspect::decode(&args.file, &bytes)?;
-    file.check_signature().map_err(|source| UnitFileError::Format { path: args.file.display().to_string(), source })?;
+    file.check_signature().map_err(UnitFileError::at(&args.file))?;
     let c = &file.contents;
     // The unit names the output files: a crafted `../` must not write elsewhere.
     let unit = unit_files::unit_id(c.unit)?;

@@ -87,9 +87,17 @@ pub fn run(args: ImportArgs) -> anyhow::Result<ExitCode> {
     let lens = LensPkg::read(&read(&args.lens)?).with_context(|| format!("{}", args.lens.display()))?;
     let laser_pkg = LaserPkg::read(&read(&args.laser)?).with_context(|| format!("{}", args.laser.display()))?;
     let camera = camera_of(&lens, args.image_size, &args.lens)?;
-    let laser = LaserLine::from_point_direction(Vec3::from(laser_pkg.position_m), Vec3::from(laser_pkg.axis))
-        .filter(|_| laser_pkg.position_m.iter().chain(&laser_pkg.axis).all(|v| v.is_finite()))
-        .with_context(|| format!("{}: the laser axis does not point forward (z > 0)", args.laser.display()))?;
+    let (p, a) = (laser_pkg.position_m, laser_pkg.axis);
+    let as_given = LaserLine { origin_m: p, direction: a };
+    // Taken as stored when it already is a unit direction from the z = 0 plane, so that an
+    // export gives NumPy back the very same numbers; moved and normalised otherwise.
+    let laser = if p[2] == 0.0 && a[2] > 0.0 && (as_given.dir().norm() - 1.0).abs() < 1e-12 {
+        Some(as_given)
+    } else {
+        LaserLine::from_point_direction(Vec3::from(p), Vec3::from(a))
+    }
+    .filter(|_| p.iter().chain(&a).all(|v| v.is_finite()))
+    .with_context(|| format!("{}: the laser axis does not point forward (z > 0)", args.laser.display()))?;
     let made_utc_s = lens.calibrated_utc_s.max(laser_pkg.calibrated_utc_s);
     let contents = UnitFile {
         unit: &unit,

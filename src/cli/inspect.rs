@@ -26,7 +26,7 @@ pub struct InspectArgs {
 
 /// Reads and decodes a unit file (the signature unchecked), naming the file in any error.
 pub(super) fn decode<'a>(path: &Path, bytes: &'a [u8]) -> Result<SignedUnitFile<'a>, UnitFileError> {
-    SignedUnitFile::decode(bytes).map_err(|source| UnitFileError::Format { path: path.display().to_string(), source })
+    SignedUnitFile::decode(bytes).map_err(UnitFileError::at(path))
 }
 
 /// The JSON description of a unit file every command that reports one uses.
@@ -59,7 +59,8 @@ pub(super) fn unit_file_json(path: &Path, size_bytes: usize, f: &SignedUnitFile<
         "fit": c.fit.map(|q| json!({
             "photos_used": q.photos_used,
             "photos_total": q.photos_total,
-            "outliers": format!("{} of {}", q.outliers, q.photos_total),
+            // As `fslcal laser` counts them: of the photos with a dot.
+            "outliers": format!("{} of {}", q.outliers, q.photos_used + q.outliers),
             "residual_rms_px": q.residual_rms_px,
             "residual_worst_px": q.residual_worst_px,
             "residual_rms_mm": q.residual_rms_mm,
@@ -122,7 +123,7 @@ fn summary(path: &Path, size: usize, f: &SignedUnitFile<'_>) -> String {
             q.photos_used,
             q.photos_total,
             q.outliers,
-            q.photos_total,
+            q.photos_used + q.outliers,
             q.span_m
         );
     }

@@ -227,7 +227,8 @@ fn unit_contents<'a>(target: &'a str, camera: &CameraModel, cal: &LaserCalibrati
         camera_identity: CameraIdentity { make: "", model: "", serial: None },
         camera: *camera,
         laser: f.laser,
-        laser_covariance: f.covariance,
+        // The file keeps the upper triangle; average away the fit's rounding asymmetry.
+        laser_covariance: std::array::from_fn(|r| std::array::from_fn(|c| 0.5 * (f.covariance[r][c] + f.covariance[c][r]))),
         made_utc_s: utc_time::now_s(),
         water_depth_m: None,
         depth_range_m: Some([f.depth_range_m.0 as f32, f.depth_range_m.1 as f32]),

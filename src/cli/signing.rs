@@ -64,8 +64,8 @@ pub fn read_camera(path: &std::path::Path, signing: &SigningArgs) -> anyhow::Res
         let (camera, _) = crate::camera_file::read(path)?;
         return Ok((camera, None));
     }
-    let err = |source| UnitFileError::Format { path: path.display().to_string(), source };
-    let file = unit_file::SignedUnitFile::decode(&bytes).map_err(err)?;
+    let err = UnitFileError::at(path);
+    let file = unit_file::SignedUnitFile::decode(&bytes).map_err(&err)?;
     file.check_signature().map_err(err)?;
     let c = &file.contents;
     let theirs = unit_files::unit_id(c.unit)?;

@@ -34,7 +34,7 @@ pub(super) fn verify_bytes<'a>(
     trusted: &'a [TrustedKey],
 ) -> Result<(SignedUnitFile<'a>, &'a TrustedKey), UnitFileError> {
     let keys: Vec<[u8; 32]> = trusted.iter().map(|t| t.key).collect();
-    let file = format::verify(bytes, &keys).map_err(|source| UnitFileError::Format { path: path.display().to_string(), source })?;
+    let file = format::verify(bytes, &keys).map_err(UnitFileError::at(path))?;
     // `verify` accepted the signer, so it is among `trusted`.
     let by = trusted.iter().find(|t| t.key == file.signer).unwrap_or(&trusted[0]);
     Ok((file, by))
