@@ -83,24 +83,24 @@ pub fn generate(path: &Path, comment: &str) -> Result<[u8; 32], KeyError> {
     Ok(public)
 }
 
-/// Reads a secret key file.
-pub fn read_secret(path: &Path) -> Result<[u8; 32], KeyError> {
+/// The 32 bytes on a key file's line `TAG <64 hex digits> ...`.
+fn read_key_line(path: &Path, tag: &'static str, what: &'static str) -> Result<[u8; 32], KeyError> {
     let text = read_text(path)?;
     let mut words = text.split_whitespace();
     match (words.next(), words.next().and_then(unhex32)) {
-        (Some(SECRET_TAG), Some(seed)) => Ok(seed),
-        _ => Err(KeyError::Malformed { path: path.display().to_string(), what: "secret key", tag: SECRET_TAG }),
+        (Some(t), Some(key)) if t == tag => Ok(key),
+        _ => Err(KeyError::Malformed { path: path.display().to_string(), what, tag }),
     }
+}
+
+/// Reads a secret key file.
+pub fn read_secret(path: &Path) -> Result<[u8; 32], KeyError> {
+    read_key_line(path, SECRET_TAG, "secret key")
 }
 
 /// Reads a public key file.
 pub fn read_public(path: &Path) -> Result<[u8; 32], KeyError> {
-    let text = read_text(path)?;
-    let mut words = text.split_whitespace();
-    match (words.next(), words.next().and_then(unhex32)) {
-        (Some(PUBLIC_TAG), Some(key)) => Ok(key),
-        _ => Err(KeyError::Malformed { path: path.display().to_string(), what: "public key", tag: PUBLIC_TAG }),
-    }
+    read_key_line(path, PUBLIC_TAG, "public key")
 }
 
 /// A key someone chose to trust, and the file it came from.

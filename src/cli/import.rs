@@ -1,12 +1,13 @@
 //! `fslcal import`: a signed unit file from the FishSense lab's lens and laser `.pkg` files.
 
 use super::signing::SigningArgs;
+use crate::camera_file::{camera_from_opencv, OpencvCameraProblem};
 use crate::fishsense_pkg::{LaserPkg, LensPkg};
 use crate::unit_files;
 use crate::utc_time;
-use anyhow::{bail, Context};
+use anyhow::Context;
 use fslcal_core::unit_file::{FitMethod, UnitFile};
-use fslcal_core::{CameraModel, Distortion, LaserLine, Vec3};
+use fslcal_core::{CameraModel, LaserLine, Vec3};
 use serde_json::json;
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
@@ -55,31 +56,17 @@ fn read(path: &Path) -> anyhow::Result<Vec<u8>> {
 
 /// The camera a lens `.pkg` describes, at `size`.
 fn camera_of(lens: &LensPkg, size: (u32, u32), path: &Path) -> anyhow::Result<CameraModel> {
-    let k = &lens.camera_matrix;
-    let d = &lens.distortion;
-    if d.len() < 4 || d.iter().skip(5).any(|&c| c != 0.0) {
-        bail!("{}: {} distortion coefficients; fslcal uses OpenCV's 5-term model (k1, k2, p1, p2, k3)", path.display(), d.len());
-    }
-    let mut c = [0.0; 5];
-    c[..d.len().min(5)].copy_from_slice(&d[..d.len().min(5)]);
-    let camera = CameraModel {
-        width_px: size.0,
-        height_px: size.1,
-        fx_px: k[0],
-        fy_px: k[4],
-        cx_px: k[2],
-        cy_px: k[5],
-        distortion: Distortion::from_opencv(c),
-    };
-    if !camera.is_plausible() || k[1] != 0.0 || k[3] != 0.0 || k[6] != 0.0 || k[7] != 0.0 || k[8] != 1.0 {
-        bail!(
+    camera_from_opencv(size.0, size.1, &lens.camera_matrix, &lens.distortion).map_err(|problem| match problem {
+        OpencvCameraProblem::Distortion(n) => {
+            anyhow::anyhow!("{}: {n} distortion coefficients; fslcal uses OpenCV's 5-term model (k1, k2, p1, p2, k3)", path.display())
+        }
+        OpencvCameraProblem::Implausible => anyhow::anyhow!(
             "{}: the camera matrix is not plausible for a {}x{} image (focal lengths must be positive, the principal point inside; give the right --image-size)",
             path.display(),
             size.0,
             size.1
-        );
-    }
-    Ok(camera)
+        ),
+    })
 }
 
 pub fn run(args: ImportArgs) -> anyhow::Result<ExitCode> {
