@@ -77,6 +77,11 @@ pub struct Fix {
     pub miss_px: f64,
 }
 
+/// Depths searched for the beam's image when a dot gives no fix: the housing's front to
+/// beyond any visibility.
+const BEAM_NEAR_M: f64 = 0.1;
+const BEAM_FAR_M: f64 = 50.0;
+
 /// Slate validations pass within this error, as `fslcal validate`'s default tolerance.
 pub const VALIDATION_TOLERANCE_PCT: f64 = 3.0;
 
@@ -202,8 +207,17 @@ impl Firmware {
         };
         self.dots_seen = self.dots_seen.saturating_add(1);
         self.reading = Some(Reading { dot_px: [u_px, v_px], fix });
-        if let Some(f) = fix {
-            self.drift.push(f.miss_px);
+        // A dot in the image that gives no fix (its ray passes the beam on the far side of
+        // the camera) is as far off the line as its pixel is from the beam's image.
+        let miss_px = match fix {
+            Some(f) => Some(f.miss_px),
+            None if cal.camera.contains(px) => {
+                Some(cal.laser.pixel_offset(&cal.camera, px, BEAM_NEAR_M, BEAM_FAR_M).unwrap_or(f64::INFINITY))
+            }
+            None => None,
+        };
+        if let Some(m) = miss_px {
+            self.drift.push(m);
         }
         self.screen = if self.drift.warning() { Screen::DriftWarning } else { Screen::Live };
     }

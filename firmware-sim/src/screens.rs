@@ -5,7 +5,6 @@
 //! characters each), or a large 10x20 figure with three lines below it. The fonts are
 //! ISO 8859-7 so that `±`, `σ` and `°` exist.
 
-use crate::drift::{DRIFT_MIN_OFF, DRIFT_OFF_LINE_PX};
 use crate::firmware::{Calibration, Firmware, Screen, VALIDATION_TOLERANCE_PCT};
 use crate::text;
 use crate::text::TextBuf;
@@ -175,7 +174,7 @@ pub fn live_lines(fw: &Firmware, cal: &UnitCalibration) -> (Line, [Line; 3]) {
     let px = text!(24, "dot {:.1},{:.1}", r.dot_px[0], r.dot_px[1]);
     let Some(f) = r.fix else {
         let why = if cal.camera.contains(fslcal_core::Vec2::new(r.dot_px[0], r.dot_px[1])) {
-            "no fix: ray || laser"
+            "no fix: off the beam"
         } else {
             "dot outside image"
         };
@@ -192,7 +191,7 @@ pub fn live_lines(fw: &Firmware, cal: &UnitCalibration) -> (Line, [Line; 3]) {
 fn live<D: DrawTarget<Color = BinaryColor>>(d: &mut D, fw: &Firmware, cal: &UnitCalibration) -> Result<(), D::Error> {
     let flag = if fw.drift().warning() { "DRIFT?" } else { "" };
     let right = text!(24, "{flag} #{}", fw.dots_seen());
-    title(d, cal.unit.as_str(), right.as_str().trim_start())?;
+    title(d, text!(24, "{} LIVE", cal.unit.as_str()).as_str(), right.as_str().trim_start())?;
     let (big, lines) = live_lines(fw, cal);
     large(d, big.as_str())?;
     lines_at(d, &UNDER_LARGE_TOP, &lines)
@@ -224,8 +223,8 @@ pub fn drift_lines(fw: &Firmware) -> [Line; 5] {
     let (off, of) = fw.drift().off_line();
     [
         text!(24, "{off} of last {of} dots"),
-        text!(24, "off line >{DRIFT_OFF_LINE_PX:.0} px (>={DRIFT_MIN_OFF})"),
-        text!(24, "median {:.1} px", fw.drift().median_miss_px().unwrap_or(f64::NAN)),
+        text!(24, "off the laser line"),
+        text!(24, "median {:.1} px off", fw.drift().median_miss_px().unwrap_or(f64::NAN)),
         line("laser moved? recal."),
         line("OK ack   NEXT live"),
     ]
