@@ -50,6 +50,8 @@ pub enum Screen {
 }
 
 /// The calibration's state.
+// No heap to box the large variant into, and the state is one fixed value anyway.
+#[allow(clippy::large_enum_variant)]
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum Calibration {
     None,
@@ -223,7 +225,7 @@ impl Firmware {
     }
 
     fn validate(&mut self, measured_mm: f64, true_mm: f64) {
-        if !matches!(self.calibration, Calibration::Valid(_)) || !(true_mm > 0.0) || !measured_mm.is_finite() {
+        if !matches!(self.calibration, Calibration::Valid(_)) || !true_mm.is_finite() || true_mm <= 0.0 || !measured_mm.is_finite() {
             return;
         }
         let error_pct = 100.0 * (measured_mm - true_mm) / true_mm;

@@ -31,19 +31,19 @@ type Line = TextBuf<24>;
 /// Draws the firmware's current screen, clearing the display first.
 pub fn draw<D: DrawTarget<Color = BinaryColor>>(fw: &Firmware, d: &mut D) -> Result<(), D::Error> {
     d.clear(BinaryColor::Off)?;
-    match (fw.screen(), fw.calibration()) {
-        (Screen::NoCalibration, _) | (_, Calibration::None) => {
+    let cal = match fw.calibration() {
+        Calibration::None => {
             title(d, "NO CALIBRATION", "")?;
-            body(d, &["load this unit's", "signed .fslcal file", "", "do not measure"].map(line))
+            return body(d, &["load this unit's", "signed .fslcal file", "", "do not measure"].map(line));
         }
-        (Screen::Invalid, Calibration::Invalid(why)) | (_, Calibration::Invalid(why)) => {
-            invalid(d, fw.config().unit, why)
-        }
-        (Screen::SelfCheck, Calibration::Valid(cal)) => self_check(d, fw, cal),
-        (Screen::Live, Calibration::Valid(cal)) => live(d, fw, cal),
-        (Screen::Validation, Calibration::Valid(cal)) => validation(d, fw, cal),
-        (Screen::DriftWarning, Calibration::Valid(_)) => drift_warning(d, fw),
-        (Screen::Invalid, Calibration::Valid(cal)) => self_check(d, fw, cal),
+        Calibration::Invalid(why) => return invalid(d, fw.config().unit, why),
+        Calibration::Valid(cal) => cal,
+    };
+    match fw.screen() {
+        Screen::Live => live(d, fw, cal),
+        Screen::Validation => validation(d, fw),
+        Screen::DriftWarning => drift_warning(d, fw),
+        Screen::SelfCheck | Screen::NoCalibration | Screen::Invalid => self_check(d, fw, cal),
     }
 }
 
@@ -212,7 +212,7 @@ pub fn validation_lines(fw: &Firmware) -> (Line, Line, [Line; 3]) {
     )
 }
 
-fn validation<D: DrawTarget<Color = BinaryColor>>(d: &mut D, fw: &Firmware, _cal: &UnitCalibration) -> Result<(), D::Error> {
+fn validation<D: DrawTarget<Color = BinaryColor>>(d: &mut D, fw: &Firmware) -> Result<(), D::Error> {
     let (verdict, big, lines) = validation_lines(fw);
     title(d, "VALIDATION", verdict.as_str())?;
     large(d, big.as_str())?;
