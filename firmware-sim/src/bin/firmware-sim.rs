@@ -175,7 +175,8 @@ fn encode_png(display: &SimulatorDisplay<BinaryColor>, settings: &embedded_graph
     let img = display.to_rgb_output_image(settings);
     let buf = img.as_image_buffer();
     let mut png = Vec::new();
-    image::codecs::png::PngEncoder::new(&mut png)
+    use image::codecs::png::{CompressionType, FilterType, PngEncoder};
+    PngEncoder::new_with_quality(&mut png, CompressionType::Best, FilterType::Adaptive)
         .write_image(buf.as_raw(), buf.width(), buf.height(), image::ExtendedColorType::Rgb8)
         .context("PNG encoding failed")?;
     Ok(png)
