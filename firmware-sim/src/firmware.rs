@@ -155,10 +155,6 @@ impl Firmware {
 
     /// Verifies the stored file again and shows the result.
     fn self_check(&mut self) {
-        if self.file_len == 0 && self.calibration == Calibration::None {
-            self.screen = Screen::NoCalibration;
-            return;
-        }
         self.calibration = match unit_file::open(&self.file[..self.file_len], self.config.unit, self.config.trusted_keys) {
             Ok(cal) => Calibration::Valid(cal),
             Err(why) => Calibration::Invalid(why),

@@ -100,6 +100,18 @@ fn a_stored_file_is_verified_again_by_the_self_check() {
 }
 
 #[test]
+fn an_empty_or_oversized_file_is_refused_not_ignored() {
+    let fw = loaded(&[]);
+    assert_eq!(*fw.calibration(), Calibration::Invalid(Rejection::Truncated { found: 0, expected: 7 }));
+    let fw = loaded(&vec![0u8; 4096]);
+    assert_eq!(*fw.calibration(), Calibration::Invalid(Rejection::NotACalibration));
+    // A bad file after a good one replaces it: the diver never measures with a stale file.
+    let mut fw = loaded(&good_file());
+    fw.handle(Event::LoadFile(&tampered_file()));
+    assert_eq!(fw.screen(), Screen::Invalid);
+}
+
+#[test]
 fn drift_warning_needs_most_recent_dots_off_the_line_and_clears_on_ok() {
     let mut fw = loaded(&good_file());
     fw.handle(Event::Press(Button::Next));
