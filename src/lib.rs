@@ -6,12 +6,18 @@
 
 pub mod atomic_file;
 pub mod calibration;
+pub mod calibration_change;
 pub mod camera_file;
 pub mod cli;
 pub mod dot;
+pub mod fishsense_pkg;
+pub mod keys;
 #[cfg(feature = "vision")]
 pub mod laser_calibration;
 pub mod laser_fit;
+pub mod unit_files;
+pub mod unit_registry;
+pub mod utc_time;
 #[cfg(feature = "vision")]
 pub mod vision;
 

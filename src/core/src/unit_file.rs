@@ -467,7 +467,7 @@ pub const EXAMPLE_SECRET_KEY: [u8; 32] = *b"fslcal example key, not a secret";
 pub fn example() -> UnitFile<'static> {
     UnitFile {
         unit: "FSL-03",
-        camera_identity: CameraIdentity { make: "OM Digital Solutions", model: "TG-6", serial: Some("BJ7654321") },
+        camera_identity: CameraIdentity { make: "OLYMPUS CORPORATION", model: "TG-6", serial: Some("BJ7654321") },
         camera: CameraModel {
             width_px: 4000,
             height_px: 3000,

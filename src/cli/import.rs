@@ -1,0 +1,114 @@
+//! `fslcal import`: a signed unit file from the FishSense lab's lens and laser `.pkg` files.
+
+use super::signing::SigningArgs;
+use crate::fishsense_pkg::{LaserPkg, LensPkg};
+use crate::unit_files;
+use crate::utc_time;
+use anyhow::{bail, Context};
+use fslcal_core::unit_file::{FitMethod, UnitFile};
+use fslcal_core::{CameraModel, Distortion, LaserLine, Vec3};
+use serde_json::json;
+use std::path::{Path, PathBuf};
+use std::process::ExitCode;
+
+/// Make a signed unit file from the lab's lens and laser calibrations (.pkg archives).
+///
+/// The .pkg files carry no image size, no covariance and no fit figures: the size comes
+/// from --image-size, and the file records the laser as imported with unknown covariance.
+#[derive(clap::Args, Debug)]
+pub struct ImportArgs {
+    /// The lens calibration (`_calibration_matrix.npy`, `_distortion_coefficients.npy`).
+    #[arg(value_name = "LENS.pkg")]
+    lens: PathBuf,
+
+    /// The laser calibration (`laser_pos.npy`, `laser_axis.npy`).
+    #[arg(value_name = "LASER.pkg")]
+    laser: PathBuf,
+
+    #[command(flatten)]
+    signing: SigningArgs,
+
+    /// Image size the lens calibration was made at, pixels.
+    #[arg(long, value_name = "WxH", default_value = "4000x3000", value_parser = parse_size)]
+    image_size: (u32, u32),
+
+    /// The unit file to write.
+    #[arg(long, value_name = "FILE.fslcal")]
+    out: PathBuf,
+
+    /// Print one JSON object instead of the summary.
+    #[arg(long)]
+    json: bool,
+}
+
+fn parse_size(s: &str) -> Result<(u32, u32), String> {
+    let (w, h) = s.split_once('x').ok_or("expected WIDTHxHEIGHT in pixels, e.g. 4000x3000")?;
+    match (w.trim().parse(), h.trim().parse()) {
+        (Ok(w), Ok(h)) if w > 0 && h > 0 => Ok((w, h)),
+        _ => Err("expected WIDTHxHEIGHT in pixels, e.g. 4000x3000".into()),
+    }
+}
+
+fn read(path: &Path) -> anyhow::Result<Vec<u8>> {
+    std::fs::read(path).with_context(|| format!("{}: cannot read", path.display()))
+}
+
+/// The camera a lens `.pkg` describes, at `size`.
+fn camera_of(lens: &LensPkg, size: (u32, u32), path: &Path) -> anyhow::Result<CameraModel> {
+    let k = &lens.camera_matrix;
+    let d = &lens.distortion;
+    if d.len() < 4 || d.iter().skip(5).any(|&c| c != 0.0) {
+        bail!("{}: {} distortion coefficients; fslcal uses OpenCV's 5-term model (k1, k2, p1, p2, k3)", path.display(), d.len());
+    }
+    let mut c = [0.0; 5];
+    c[..d.len().min(5)].copy_from_slice(&d[..d.len().min(5)]);
+    let camera = CameraModel {
+        width_px: size.0,
+        height_px: size.1,
+        fx_px: k[0],
+        fy_px: k[4],
+        cx_px: k[2],
+        cy_px: k[5],
+        distortion: Distortion::from_opencv(c),
+    };
+    if !camera.is_plausible() || k[1] != 0.0 || k[3] != 0.0 || k[6] != 0.0 || k[7] != 0.0 || k[8] != 1.0 {
+        bail!(
+            "{}: the camera matrix is not plausible for a {}x{} image (focal lengths must be positive, the principal point inside; give the right --image-size)",
+            path.display(),
+            size.0,
+            size.1
+        );
+    }
+    Ok(camera)
+}
+
+pub fn run(args: ImportArgs) -> anyhow::Result<ExitCode> {
+    let (unit, key) = args.signing.unit_and_key(&args.out)?;
+    let lens = LensPkg::read(&read(&args.lens)?).with_context(|| format!("{}", args.lens.display()))?;
+    let laser_pkg = LaserPkg::read(&read(&args.laser)?).with_context(|| format!("{}", args.laser.display()))?;
+    let camera = camera_of(&lens, args.image_size, &args.lens)?;
+    let laser = LaserLine::from_point_direction(Vec3::from(laser_pkg.position_m), Vec3::from(laser_pkg.axis))
+        .filter(|_| laser_pkg.position_m.iter().chain(&laser_pkg.axis).all(|v| v.is_finite()))
+        .with_context(|| format!("{}: the laser axis does not point forward (z > 0)", args.laser.display()))?;
+    let made_utc_s = lens.calibrated_utc_s.max(laser_pkg.calibrated_utc_s);
+    let contents = UnitFile {
+        unit: &unit,
+        camera_identity: args.signing.identity(),
+        camera,
+        laser,
+        laser_covariance: [[0.0; 4]; 4],
+        made_utc_s,
+        water_depth_m: args.signing.water_depth_m,
+        depth_range_m: None,
+        fit: None,
+        method: FitMethod::Imported,
+        target: None,
+    };
+    let size = unit_files::sign_to_file(&contents, &key, &args.out)?;
+    if args.json {
+        println!("{}", json!({ "out": args.out.display().to_string(), "unit": unit, "size_bytes": size, "made_utc": utc_time::format_iso(made_utc_s) }));
+    } else {
+        println!("{unit}: wrote {} ({size} bytes), calibrated {}", args.out.display(), utc_time::format_iso(made_utc_s));
+    }
+    Ok(ExitCode::SUCCESS)
+}
