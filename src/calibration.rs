@@ -24,6 +24,9 @@ pub struct Calibration {
     pub unit: Option<String>,
     /// Camera body serial, when the file records it.
     pub camera_serial: Option<String>,
+    /// Focal length the calibration photos were taken at (EXIF), millimetres: another
+    /// means the zoom was used.
+    pub focal_length_mm: Option<f64>,
     pub source: PathBuf,
 }
 
@@ -69,6 +72,7 @@ struct LaserResultJson {
     depth_range_m: Option<(f64, f64)>,
     unit: Option<String>,
     camera_serial: Option<String>,
+    focal_length_mm: Option<f64>,
 }
 
 /// The `camera` object every JSON output uses: `image_size` [w, h] and `fx`, `fy`, `cx`, `cy`
@@ -120,6 +124,7 @@ fn parse_laser_json(bytes: &[u8], path: &Path) -> Result<Calibration, Calibratio
         depth_range_m: r.depth_range_m,
         unit: r.unit,
         camera_serial: r.camera_serial,
+        focal_length_mm: r.focal_length_mm,
         source: path.to_path_buf(),
     })
 }

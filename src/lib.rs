@@ -9,9 +9,12 @@ pub mod calibration;
 pub mod camera_file;
 pub mod cli;
 pub mod dot;
+pub mod exif;
 #[cfg(feature = "vision")]
 pub mod laser_calibration;
 pub mod laser_fit;
+pub mod photo_identity;
+pub mod raw;
 #[cfg(feature = "vision")]
 pub mod vision;
 
