@@ -79,7 +79,12 @@ pub fn grbg_colour(x: u32, y: u32) -> usize {
 
 /// The raw value (12-bit scale, before left-alignment) of sensor site (x, y) for a scene
 /// pixel: black plus the linear, response-scaled level, clipped at white as a sensor clips.
+/// A channel the render clipped (255: a laser dot's core, a glint) was beyond the sensor's
+/// range too, and clips at white whatever the response.
 pub fn raw_level(rgb: [u8; 3], colour: usize, black: u16, response: [f64; 3]) -> u16 {
+    if rgb[colour] == 255 {
+        return TG6_WHITE;
+    }
     let lin = srgb_to_linear(rgb[colour]) * response[colour];
     let v = black as f64 + lin * (TG6_WHITE - black) as f64;
     v.round().clamp(0.0, TG6_WHITE as f64) as u16

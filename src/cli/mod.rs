@@ -1,6 +1,7 @@
 //! The command line: one file per subcommand, each with its clap `Args` (whose doc comments
 //! are the help text) and a `run()`.
 
+mod develop;
 #[cfg(feature = "vision")]
 mod laser;
 mod progress;
@@ -19,6 +20,7 @@ pub struct Cli {
 
 #[derive(Subcommand, Debug)]
 enum Command {
+    Develop(develop::DevelopArgs),
     #[cfg(feature = "vision")]
     Laser(laser::LaserArgs),
 }
@@ -27,6 +29,7 @@ enum Command {
 pub fn run() -> anyhow::Result<ExitCode> {
     let cli = Cli::parse();
     match cli.command {
+        Command::Develop(args) => develop::run(args),
         #[cfg(feature = "vision")]
         Command::Laser(args) => laser::run(args),
     }
