@@ -6,6 +6,8 @@ mod develop;
 mod laser;
 mod progress;
 
+pub use develop::develop_one;
+
 use clap::{Parser, Subcommand};
 use std::process::ExitCode;
 
