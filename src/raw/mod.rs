@@ -49,6 +49,8 @@ pub struct RawFrame {
     /// Black level of each site of the same 2x2 pattern.
     black: [f32; 4],
     white: f32,
+    /// The camera's as-shot white balance (R, G, B multipliers, G = 1), from the maker note.
+    pub camera_wb: [f32; 3],
     pub make: String,
     pub model: String,
 }
@@ -119,6 +121,8 @@ impl RawFrame {
         if !(white > black.iter().cloned().fold(0.0, f32::max) + 16.0) {
             return Err(corrupt("its white level is not above its black level"));
         }
+        let wb = image.wb_coeffs;
+        let camera_wb = if wb[..3].iter().all(|v| v.is_finite() && *v > 0.0) { [wb[0] / wb[1], 1.0, wb[2] / wb[1]] } else { [1.0; 3] };
         let samples = match image.data {
             rawler::RawImageData::Integer(v) => v,
             rawler::RawImageData::Float(_) => return Err(corrupt("floating-point samples")),
@@ -137,6 +141,7 @@ impl RawFrame {
             pattern,
             black,
             white,
+            camera_wb,
             make: image.clean_make,
             model: image.clean_model,
         })
