@@ -26,6 +26,23 @@ pub enum RawError {
     Corrupt { path: String, why: String },
 }
 
+/// rawler turns its own panics on malformed files into errors (`catch_unwind`), but the
+/// panic hook has printed a multi-line backtrace to stderr by then. The error is reported
+/// as one line; the hook stays quiet for panics raised inside rawler's code, wherever the
+/// thread (rawler decodes rows on rayon's workers), and keeps every other panic loud.
+fn silence_rawler_panics() {
+    static ONCE: std::sync::Once = std::sync::Once::new();
+    ONCE.call_once(|| {
+        let previous = std::panic::take_hook();
+        std::panic::set_hook(Box::new(move |info| {
+            if info.location().is_some_and(|l| l.file().contains("/rawler-")) {
+                return;
+            }
+            previous(info)
+        }));
+    });
+}
+
 /// Whether `bytes` start like an ORF: a TIFF whose magic is Olympus's `RO`/`RS` (or
 /// `OR`/`SR` big-endian) instead of 42.
 pub fn is_orf(bytes: &[u8]) -> bool {
@@ -71,9 +88,13 @@ impl RawFrame {
             Some(_) => {}
             None => return Err(RawError::Corrupt { path: name, why: "no image strips in its first IFD".into() }),
         }
+        silence_rawler_panics();
         let source = rawler::rawsource::RawSource::new_from_shared_vec(Arc::new(bytes)).with_path(path);
         let image = rawler::decode(&source, &rawler::decoders::RawDecodeParams::default()).map_err(|e| match e {
             rawler::RawlerError::Unsupported { make, model, .. } => RawError::Unsupported { path: name.clone(), make, model },
+            rawler::RawlerError::DecoderFailed(why) if why.contains("Caught a panic") => {
+                RawError::Corrupt { path: name.clone(), why: "the decoder could not make sense of its contents".into() }
+            }
             rawler::RawlerError::DecoderFailed(why) => {
                 RawError::Corrupt { path: name.clone(), why: why.lines().next().unwrap_or("decoder failed").trim().to_string() }
             }
