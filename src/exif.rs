@@ -181,7 +181,8 @@ fn find(entries: &[(u16, Entry)], tag: u16) -> Option<&Entry> {
     entries.iter().find(|(t, _)| *t == tag).map(|(_, e)| e)
 }
 
-fn read_tiff(data: &[u8]) -> Option<PhotoExif> {
+/// A TIFF's byte order and its first IFD.
+fn open_tiff(data: &[u8]) -> Option<(Tiff<'_>, Vec<(u16, Entry)>)> {
     let little = match data.get(..2)? {
         b"II" => true,
         b"MM" => false,
@@ -189,6 +190,11 @@ fn read_tiff(data: &[u8]) -> Option<PhotoExif> {
     };
     let t = Tiff { data, little };
     let ifd0 = t.ifd(t.u32_at(4)? as usize, 0)?;
+    Some((t, ifd0))
+}
+
+fn read_tiff(data: &[u8]) -> Option<PhotoExif> {
+    let (t, ifd0) = open_tiff(data)?;
     let mut exif = PhotoExif {
         make: find(&ifd0, TAG_MAKE).and_then(|e| t.ascii(e)),
         model: find(&ifd0, TAG_MODEL).and_then(|e| t.ascii(e)),
@@ -212,13 +218,7 @@ fn read_tiff(data: &[u8]) -> Option<PhotoExif> {
 /// Where the first IFD's image strips end, bytes from the file's start: a raw file shorter
 /// than this was cut off while copying. `None`: not a TIFF, or no strips.
 pub fn strips_end(data: &[u8]) -> Option<u64> {
-    let little = match data.get(..2)? {
-        b"II" => true,
-        b"MM" => false,
-        _ => return None,
-    };
-    let t = Tiff { data, little };
-    let ifd0 = t.ifd(t.u32_at(4)? as usize, 0)?;
+    let (t, ifd0) = open_tiff(data)?;
     let (offsets, counts) = (find(&ifd0, TAG_STRIP_OFFSETS)?, find(&ifd0, TAG_STRIP_BYTE_COUNTS)?);
     let nth = |e: &Entry, i: usize| -> Option<u64> {
         match e.kind {

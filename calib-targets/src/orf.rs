@@ -239,7 +239,9 @@ fn maker_note(meta: &OrfMeta, crop: (u32, u32)) -> Vec<u8> {
     let (ox, oy) = TG6_CROP_ORIGIN;
     let processing = vec![
         Entry::undefined(0x0000, b"0112".to_vec()),
-        Entry::short(0x0100, &[480, 438]),
+        // The as-shot white balance undoes the sensor's response to daylight (real TG-6
+        // files carry about 1.9 and 1.7).
+        Entry::short(0x0100, &[wb_level(meta.response, 0), wb_level(meta.response, 2)]),
         Entry::short(0x0600, &TG6_BLACK),
         Entry::short(0x0612, &[ox as u16]),
         Entry::short(0x0613, &[oy as u16]),
@@ -255,6 +257,11 @@ fn maker_note(meta: &OrfMeta, crop: (u32, u32)) -> Vec<u8> {
     note.write_ifd(&equipment, 0);
     note.write_ifd(&processing, 0);
     note.bytes
+}
+
+/// Maker-note white-balance level (256 = 1.0) of R (0) or B (2) for a sensor response.
+fn wb_level(response: [f64; 3], colour: usize) -> u16 {
+    (256.0 * response[1] / response[colour]).round().clamp(1.0, 65535.0) as u16
 }
 
 /// One IFD entry: tag, TIFF type, count, value bytes (little-endian).

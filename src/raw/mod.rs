@@ -26,6 +26,23 @@ pub enum RawError {
     Corrupt { path: String, why: String },
 }
 
+/// rawler turns its own panics on malformed files into errors (`catch_unwind`), but the
+/// panic hook has printed a multi-line backtrace to stderr by then. The error is reported
+/// as one line; the hook stays quiet for panics raised inside rawler's code, wherever the
+/// thread (rawler decodes rows on rayon's workers), and keeps every other panic loud.
+fn silence_rawler_panics() {
+    static ONCE: std::sync::Once = std::sync::Once::new();
+    ONCE.call_once(|| {
+        let previous = std::panic::take_hook();
+        std::panic::set_hook(Box::new(move |info| {
+            if info.location().is_some_and(|l| l.file().contains("/rawler-")) {
+                return;
+            }
+            previous(info)
+        }));
+    });
+}
+
 /// Whether `bytes` start like an ORF: a TIFF whose magic is Olympus's `RO`/`RS` (or
 /// `OR`/`SR` big-endian) instead of 42.
 pub fn is_orf(bytes: &[u8]) -> bool {
@@ -49,6 +66,8 @@ pub struct RawFrame {
     /// Black level of each site of the same 2x2 pattern.
     black: [f32; 4],
     white: f32,
+    /// The camera's as-shot white balance (R, G, B multipliers, G = 1), from the maker note.
+    pub camera_wb: [f32; 3],
     pub make: String,
     pub model: String,
 }
@@ -69,9 +88,13 @@ impl RawFrame {
             Some(_) => {}
             None => return Err(RawError::Corrupt { path: name, why: "no image strips in its first IFD".into() }),
         }
+        silence_rawler_panics();
         let source = rawler::rawsource::RawSource::new_from_shared_vec(Arc::new(bytes)).with_path(path);
         let image = rawler::decode(&source, &rawler::decoders::RawDecodeParams::default()).map_err(|e| match e {
             rawler::RawlerError::Unsupported { make, model, .. } => RawError::Unsupported { path: name.clone(), make, model },
+            rawler::RawlerError::DecoderFailed(why) if why.contains("Caught a panic") => {
+                RawError::Corrupt { path: name.clone(), why: "the decoder could not make sense of its contents".into() }
+            }
             rawler::RawlerError::DecoderFailed(why) => {
                 RawError::Corrupt { path: name.clone(), why: why.lines().next().unwrap_or("decoder failed").trim().to_string() }
             }
@@ -119,6 +142,8 @@ impl RawFrame {
         if !(white > black.iter().cloned().fold(0.0, f32::max) + 16.0) {
             return Err(corrupt("its white level is not above its black level"));
         }
+        let wb = image.wb_coeffs;
+        let camera_wb = if wb[..3].iter().all(|v| v.is_finite() && *v > 0.0) { [wb[0] / wb[1], 1.0, wb[2] / wb[1]] } else { [1.0; 3] };
         let samples = match image.data {
             rawler::RawImageData::Integer(v) => v,
             rawler::RawImageData::Float(_) => return Err(corrupt("floating-point samples")),
@@ -137,6 +162,7 @@ impl RawFrame {
             pattern,
             black,
             white,
+            camera_wb,
             make: image.clean_make,
             model: image.clean_model,
         })

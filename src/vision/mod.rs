@@ -38,9 +38,6 @@ impl VisionError {
     }
 }
 
-/// Where a raw's linear view puts the mean green level (linear mid-grey).
-const LINEAR_GREEN_MEAN: f64 = 0.18;
-
 /// A photo read but not yet decoded, so it can be decoded small first and in full only when
 /// it holds a target: a JPEG's or PNG's bytes, or a raw's sensor samples.
 pub struct EncodedPhoto<'p> {
@@ -59,9 +56,8 @@ pub struct Photo {
     /// What people see: the JPEG's pixels, or a raw developed with the grey-world balance.
     bgr: Mat,
     grey: Mat,
-    /// For a raw, its linear unbalanced levels (one exposure gain, so 255 = at or near the
-    /// sensor's clipping), where the dot's saturation and colour are true; the dot detector
-    /// reads this.
+    /// For a raw, its linear levels under the camera's white balance (green 255 = the sensor
+    /// clipped), where the dot's saturation and colour are true; the dot detector reads this.
     linear: Option<Mat>,
 }
 
@@ -158,18 +154,17 @@ impl<'p> EncodedPhoto<'p> {
         let mut linear = Mat::new_rows_cols_with_default(h, w, CV_8UC3, Scalar::all(0.0)).map_err(cv)?;
         {
             let (srgb, straight) = (ToneCurve::srgb(255), ToneCurve::linear(255));
-            // Linear levels of a dim underwater photo sit in the bottom few 8-bit levels,
-            // below the detector's thresholds; one exposure gain (never below 1, so a clipped
-            // sensor site stays 255) lifts the green mean to mid-grey without bending the
-            // response or the colour ratios.
-            let exposure = (LINEAR_GREEN_MEAN / balance.channel_means[1]).clamp(1.0, 16.0) as f32;
+            // The camera's own white balance, green unscaled: the board's white squares come
+            // out near neutral (the detector's green excess must not see the whole board as
+            // green), and a green channel at 255 is one the sensor clipped.
+            let wb = frame.camera_wb;
             let out = bgr.data_bytes_mut().map_err(cv)?;
             let lin = linear.data_bytes_mut().map_err(cv)?;
             let stride = frame.width * 3;
             for_each_row(frame, |y, row| {
                 let span = y * stride..(y + 1) * stride;
                 write_row(row, balance.gains, &srgb, Order::Bgr, &mut out[span.clone()], |v| v as u8);
-                write_row(row, [exposure; 3], &straight, Order::Bgr, &mut lin[span], |v| v as u8);
+                write_row(row, wb, &straight, Order::Bgr, &mut lin[span], |v| v as u8);
             });
         }
         Ok((bgr, linear))
