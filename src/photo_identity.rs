@@ -75,6 +75,20 @@ pub fn check_photos(expected: &ExpectedCamera, photos: &[impl AsRef<Path>], allo
     Ok(warnings)
 }
 
+/// The photos' EXIF, and the body serial and focal length they agree on (what a later
+/// `--cal` checks photos against).
+pub fn photos_exif(photos: &[impl AsRef<Path>]) -> (Vec<Option<PhotoExif>>, Option<String>, Option<f64>) {
+    let exif: Vec<Option<PhotoExif>> = photos.iter().map(|p| PhotoExif::read_file(p.as_ref())).collect();
+    let agreed = |get: &dyn Fn(&PhotoExif) -> Option<String>| -> Option<String> {
+        let mut values = exif.iter().map(|e| e.as_ref().and_then(get));
+        let first = values.next()??;
+        values.all(|v| v.as_ref() == Some(&first)).then_some(first)
+    };
+    let serial = agreed(&|e| e.serial.clone());
+    let focal = agreed(&|e| e.focal_length_mm.map(|f| format!("{f}"))).and_then(|f| f.parse().ok());
+    (exif, serial, focal)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -284,3 +284,26 @@ fn damaged_headers_are_skipped_with_one_line_each() {
     assert!(skipped > 10, "{stderr}");
     assert_eq!(o.status.success(), skipped == 0);
 }
+
+#[test]
+fn a_signed_file_from_raws_records_the_body_and_the_depth_gauge() {
+    let set = raw_laser_set();
+    let key = set.dir.join("signing.key");
+    let _ = std::fs::remove_file(&key);
+    let _ = std::fs::remove_file(key.with_extension("key.pub"));
+    let o = fslcal(&["keygen", "--out", key.to_str().unwrap()]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let out = set.dir.join("FSL-02.fslcal");
+    let photos: Vec<String> = set.photos.iter().map(|p| p.display().to_string()).collect();
+    let extra = ["--unit", "FSL-02", "--key", key.to_str().unwrap(), "--out", out.to_str().unwrap()];
+    let o = fslcal(&laser_args(set.camera_file.to_str().unwrap(), &photos, &extra));
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let o = fslcal(&["inspect", out.to_str().unwrap(), "--json"]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    assert_eq!(v["camera_identity"]["serial"], "BHR201234", "{v}");
+    // f32 in the file: 6.4 m to a millimetre.
+    assert!((v["water_depth_m"].as_f64().unwrap() - 6.4).abs() < 1e-3, "{}", v["water_depth_m"]);
+    let cal = fslcal::calibration::load(&out).unwrap();
+    assert_eq!(cal.camera_serial.as_deref(), Some("BHR201234"));
+}

@@ -5,6 +5,7 @@ use crate::atomic_file::write_atomically;
 use crate::calibration::camera_json;
 use crate::camera_calibration::{calibrate, CameraCalibration, CameraJob};
 use crate::camera_file::{self, CameraFileExtras};
+use crate::photo_identity::photos_exif;
 use crate::camera_fit::FRAME_CORNER_SHARE;
 use anyhow::{bail, Context};
 use calib_targets::Checkerboard;
@@ -62,7 +63,11 @@ pub fn run(args: CameraArgs) -> anyhow::Result<ExitCode> {
         print!("{}", summary(&args, &cal));
     }
     if let Some(out) = &args.out {
-        let yaml = camera_file::to_yaml(&cal.camera, &CameraFileExtras { avg_reprojection_error: Some(cal.rms_px), ..CameraFileExtras::default() });
+        // The body and zoom the photos agree on go into the file, so that `fslcal laser`
+        // refuses another body's photos and warns when the zoom was used.
+        let (_, camera_serial, focal_length_mm) = photos_exif(&args.photos);
+        let extras = CameraFileExtras { avg_reprojection_error: Some(cal.rms_px), camera_serial, focal_length_mm };
+        let yaml = camera_file::to_yaml(&cal.camera, &extras);
         write_atomically(out, yaml.as_bytes()).with_context(|| format!("{}: cannot write the camera file", out.display()))?;
         if !args.json {
             println!("wrote {}", out.display());

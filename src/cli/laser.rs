@@ -11,8 +11,7 @@ use crate::laser_fit::{Gates, Method};
 use anyhow::{bail, Context};
 use calib_targets::Checkerboard;
 use crate::calibration::camera_json;
-use crate::exif::PhotoExif;
-use crate::photo_identity::check_photos;
+use crate::photo_identity::{check_photos, photos_exif};
 use fslcal_core::{CameraModel, Vec2};
 use serde_json::json;
 use std::path::{Path, PathBuf};
@@ -181,10 +180,16 @@ pub fn run(args: LaserArgs) -> anyhow::Result<ExitCode> {
     }
     if let Some(out) = signed_out {
         let mut signing_args = args.signing.clone();
-        if signing_args.camera_serial.is_none() {
-            // The body the photos agree on is the body calibrated: record it so photos from
-            // another body are refused later.
-            signing_args.camera_serial = photo_exif(&args.photos).1;
+        let (exif, serial, _) = photos_exif(&args.photos);
+        // The body the photos agree on is the body calibrated: record it so photos from
+        // another body are refused later.
+        signing_args.camera_serial = signing_args.camera_serial.or(serial);
+        // Where the calibration was made, from the TG-6's depth gauge when the options do
+        // not say: the median photo's, as divers drift a metre or two while shooting.
+        if signing_args.water_depth_m.is_none() {
+            let mut depths: Vec<f64> = exif.iter().flatten().filter_map(|e| e.water_depth_m).collect();
+            depths.sort_by(f64::total_cmp);
+            signing_args.water_depth_m = depths.get(depths.len() / 2).map(|&d| d as f32);
         }
         let size = signing::sign_unit_file(out, &signing_args, prior.as_ref(), unit_contents(&args.target.to_string(), &camera, &cal))?;
         if !args.json {
@@ -201,23 +206,10 @@ pub fn run(args: LaserArgs) -> anyhow::Result<ExitCode> {
     Ok(ExitCode::SUCCESS)
 }
 
-/// The photos' EXIF, and the body serial and focal length they agree on (what a later
-/// `--cal` checks photos against).
-fn photo_exif(photos: &[PathBuf]) -> (Vec<Option<PhotoExif>>, Option<String>, Option<f64>) {
-    let exif: Vec<Option<PhotoExif>> = photos.iter().map(|p| PhotoExif::read_file(p)).collect();
-    let agreed = |get: &dyn Fn(&PhotoExif) -> Option<String>| -> Option<String> {
-        let mut values = exif.iter().map(|e| e.as_ref().and_then(get));
-        let first = values.next()??;
-        values.all(|v| v.as_ref() == Some(&first)).then_some(first)
-    };
-    let serial = agreed(&|e| e.serial.clone());
-    let focal = agreed(&|e| e.focal_length_mm.map(|f| format!("{f}"))).and_then(|f| f.parse().ok());
-    (exif, serial, focal)
-}
 
 fn json_report(args: &LaserArgs, camera: &CameraModel, cal: &LaserCalibration) -> serde_json::Value {
     let f = &cal.fit;
-    let (exif, serial, focal) = photo_exif(&args.photos);
+    let (exif, serial, focal) = photos_exif(&args.photos);
     let sigma: serde_json::Map<String, serde_json::Value> =
         f.distance_sigma_m.iter().map(|(z, s)| (format!("{z}"), json!(s))).collect();
     json!({
