@@ -14,6 +14,10 @@ pub mod dot_on_line;
 pub mod laser_calibration;
 pub mod laser_fit;
 #[cfg(feature = "vision")]
+pub mod validation;
+#[cfg(feature = "vision")]
+pub mod drift_check;
+#[cfg(feature = "vision")]
 pub mod vision;
 
 pub use fslcal_core as geometry;

@@ -170,7 +170,9 @@ struct Tape {
 pub fn taped_slate_scan(seed: u64, width_mm: f64, height_mm: f64, px_per_mm: f64) -> RgbImage {
     let (w, h) = ((width_mm * px_per_mm).round() as u32, (height_mm * px_per_mm).round() as u32);
     let mut rng = SplitMix::derive(seed, 0x51A7E);
-    let palette = [[0.62, 0.63, 0.64], [0.55, 0.56, 0.58], [0.12, 0.12, 0.13], [0.75, 0.18, 0.15], [0.90, 0.78, 0.15], [0.15, 0.35, 0.70]];
+    // No yellow or green tape: under water, where red is absorbed first, yellow turns as
+    // green as the laser's dot (docs/slate.md).
+    let palette = [[0.62, 0.63, 0.64], [0.55, 0.56, 0.58], [0.12, 0.12, 0.13], [0.75, 0.18, 0.15], [0.15, 0.35, 0.70]];
     let tapes: Vec<Tape> = (0..12)
         .map(|k| {
             let angle = rng.range(0.0, std::f64::consts::PI);

@@ -4,12 +4,11 @@ use super::progress;
 use crate::atomic_file::write_atomically;
 use crate::camera_file;
 use crate::dot::DotDetectorParams;
-use crate::laser_calibration::{calibrate, HandDots, LaserCalibration, LaserError, LaserJob, PhotoReport};
+use crate::laser_calibration::{calibrate, HandDots, LaserCalibration, LaserError, LaserJob, PhotoReport, TargetArg};
 use crate::laser_fit::{Gates, Method};
 use anyhow::{bail, Context};
-use calib_targets::Checkerboard;
 use crate::calibration::camera_json;
-use fslcal_core::{CameraModel, Vec2};
+use fslcal_core::Vec2;
 use serde_json::json;
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
@@ -26,10 +25,11 @@ pub struct LaserArgs {
     camera: PathBuf,
 
     /// The target in the photos: `checkerboard:COLSxROWS@SQUAREmm` with inner corners, e.g.
-    /// `checkerboard:14x10@42.17mm`. Measure the square with calipers over many squares: the
+    /// `checkerboard:14x10@42.17mm`, or `slate:PATH.toml`, a taped dive slate defined by its
+    /// scan (docs/slate.md). Measure the square with calipers over many squares: the
     /// FishSense board's nominal 41.3 mm is really 42.17 mm, a silent 2% scale error.
-    #[arg(long, value_name = "TARGET", value_parser = parse_target)]
-    target: Checkerboard,
+    #[arg(long, value_name = "TARGET")]
+    target: TargetArg,
 
     /// Fitting method. `reprojection` weighs each dot by what its pixel tells and drops
     /// outlier photos; the thesis's `gauss-newton` and `average` use every dot as given.
@@ -64,10 +64,6 @@ pub struct LaserArgs {
     /// Calibration photos (JPEG or PNG).
     #[arg(required = true, value_name = "PHOTOS")]
     photos: Vec<PathBuf>,
-}
-
-fn parse_target(s: &str) -> Result<Checkerboard, String> {
-    s.parse::<Checkerboard>().map_err(|e| e.to_string())
 }
 
 fn parse_range_mm(s: &str) -> Result<(f64, f64), String> {
@@ -124,7 +120,7 @@ pub fn run(args: LaserArgs) -> anyhow::Result<ExitCode> {
     }
     let job = LaserJob {
         camera,
-        board: args.target,
+        target: args.target.load().map_err(anyhow::Error::msg)?,
         method: args.method,
         gates: Gates { baseline_range_m: args.baseline_range_mm, max_dot_offset_px: args.max_dot_offset_px, ..Gates::default() },
         detector: DotDetectorParams::default(),
@@ -143,11 +139,11 @@ pub fn run(args: LaserArgs) -> anyhow::Result<ExitCode> {
         }
         Err(e) => return Err(e.into()),
     };
-    let report = json_report(&args, &job.camera, &cal);
+    let report = json_report(&args, &job, &cal);
     if args.json {
         println!("{}", serde_json::to_string_pretty(&report)?);
     } else {
-        print!("{}", summary(&args, &cal));
+        print!("{}", summary(&args, &job, &cal));
     }
     if !cal.accepted() {
         let failed: Vec<String> =
@@ -166,7 +162,8 @@ pub fn run(args: LaserArgs) -> anyhow::Result<ExitCode> {
     Ok(ExitCode::SUCCESS)
 }
 
-fn json_report(args: &LaserArgs, camera: &CameraModel, cal: &LaserCalibration) -> serde_json::Value {
+fn json_report(args: &LaserArgs, job: &LaserJob, cal: &LaserCalibration) -> serde_json::Value {
+    let camera = &job.camera;
     let f = &cal.fit;
     let sigma: serde_json::Map<String, serde_json::Value> =
         f.distance_sigma_m.iter().map(|(z, s)| (format!("{z}"), json!(s))).collect();
@@ -174,7 +171,7 @@ fn json_report(args: &LaserArgs, camera: &CameraModel, cal: &LaserCalibration) -
         "camera_file": args.camera.display().to_string(),
         // The intrinsics themselves, so that the result alone is a usable `--cal`.
         "camera": camera_json(camera),
-        "target": args.target.to_string(),
+        "target": job.target.to_string(),
         "method": f.method,
         "laser": {
             "origin_m": f.laser.origin_m,
@@ -220,14 +217,14 @@ fn photo_table(photos: &[PhotoReport]) -> String {
     s
 }
 
-fn summary(args: &LaserArgs, cal: &LaserCalibration) -> String {
+fn summary(args: &LaserArgs, job: &LaserJob, cal: &LaserCalibration) -> String {
     let f = &cal.fit;
     let l = &f.laser;
     let used = cal.photos.iter().filter(|p| p.status == "used").count();
     let mut s = format!(
         "fslcal laser: {} photos, target {}, camera {}, method {}\n\n",
         cal.photos.len(),
-        args.target,
+        job.target,
         args.camera.display(),
         serde_json::to_value(f.method).ok().and_then(|v| v.as_str().map(String::from)).unwrap_or_default(),
     );

@@ -2,7 +2,11 @@
 //! are the help text) and a `run()`.
 
 #[cfg(feature = "vision")]
+mod check;
+#[cfg(feature = "vision")]
 mod laser;
+#[cfg(feature = "vision")]
+mod validate;
 mod progress;
 
 use clap::{Parser, Subcommand};
@@ -21,6 +25,10 @@ pub struct Cli {
 enum Command {
     #[cfg(feature = "vision")]
     Laser(laser::LaserArgs),
+    #[cfg(feature = "vision")]
+    Validate(validate::ValidateArgs),
+    #[cfg(feature = "vision")]
+    Check(check::CheckArgs),
 }
 
 /// Parses the command line and runs the subcommand.
@@ -29,5 +37,9 @@ pub fn run() -> anyhow::Result<ExitCode> {
     match cli.command {
         #[cfg(feature = "vision")]
         Command::Laser(args) => laser::run(args),
+        #[cfg(feature = "vision")]
+        Command::Validate(args) => validate::run(args),
+        #[cfg(feature = "vision")]
+        Command::Check(args) => check::run(args),
     }
 }
