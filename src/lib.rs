@@ -16,6 +16,7 @@ pub mod dot;
 pub mod exif;
 pub mod fishsense_pkg;
 pub mod keys;
+pub mod dot_on_line;
 #[cfg(feature = "vision")]
 pub mod laser_calibration;
 pub mod laser_fit;
@@ -24,6 +25,10 @@ pub mod raw;
 pub mod unit_files;
 pub mod unit_registry;
 pub mod utc_time;
+#[cfg(feature = "vision")]
+pub mod validation;
+#[cfg(feature = "vision")]
+pub mod drift_check;
 #[cfg(feature = "vision")]
 pub mod vision;
 
