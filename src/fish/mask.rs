@@ -231,8 +231,8 @@ mod tests {
             }
         }
         let d = m.distance_to_background();
-        // Centre: the nearest background pixel is at radius just over 20.
-        assert!((d[30 * 61 + 30] - 21.0).abs() < 0.01, "{}", d[30 * 61 + 30]);
+        // The nearest background pixel to the centre is (50, 31): sqrt(401).
+        assert!((d[30 * 61 + 30] - 401f64.sqrt()).abs() < 1e-9, "{}", d[30 * 61 + 30]);
         assert_eq!(d[0], 0.0);
         // Brute force on a few pixels.
         for &(x, y) in &[(30usize, 15usize), (22, 40), (45, 31)] {
