@@ -3,6 +3,8 @@
 
 #[cfg(feature = "vision")]
 mod laser;
+mod measure;
+mod pixels;
 mod progress;
 
 use clap::{Parser, Subcommand};
@@ -21,6 +23,7 @@ pub struct Cli {
 enum Command {
     #[cfg(feature = "vision")]
     Laser(laser::LaserArgs),
+    Measure(measure::MeasureArgs),
 }
 
 /// Parses the command line and runs the subcommand.
@@ -29,5 +32,6 @@ pub fn run() -> anyhow::Result<ExitCode> {
     match cli.command {
         #[cfg(feature = "vision")]
         Command::Laser(args) => laser::run(args),
+        Command::Measure(args) => measure::run(args),
     }
 }
