@@ -48,14 +48,18 @@ const CSV_COLUMNS: [&str; 8] = ["photo", "head_x", "head_y", "tail_x", "tail_y",
 fn csv(text: &str) -> Result<Vec<FishLabel>, String> {
     let mut columns: Vec<String> = CSV_COLUMNS.iter().map(|s| s.to_string()).collect();
     let mut out = Vec::new();
+    let mut first = true;
     for (n, line) in text.lines().enumerate() {
         let line = line.trim();
         if line.is_empty() || line.starts_with('#') {
             continue;
         }
         let cells: Vec<&str> = line.split(',').map(str::trim).collect();
-        // A header names its columns (any order, unknown ones ignored).
-        if out.is_empty() && cells.get(1).is_some_and(|c| c.parse::<f64>().is_err()) {
+        // A header names its columns (any order, unknown ones ignored): a first line whose
+        // second cell is not a number.
+        let header = first && cells.get(1).is_some_and(|c| c.parse::<f64>().is_err());
+        first = false;
+        if header {
             columns = cells.iter().map(|c| c.to_ascii_lowercase()).collect();
             for need in &CSV_COLUMNS[..5] {
                 if !columns.iter().any(|c| c == need) {

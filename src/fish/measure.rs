@@ -208,7 +208,7 @@ pub fn distribution(lengths_m: &[f64]) -> Option<Distribution> {
     // About ten bins of 1, 2 or 5 times a power of ten (at least a millimetre).
     let raw = ((hi - lo) / 10.0).max(1e-3);
     let mag = 10f64.powf(raw.log10().floor());
-    let width = [1.0, 2.0, 5.0, 10.0].iter().map(|m| m * mag).find(|w| *w >= raw).unwrap_or(10.0 * mag);
+    let width = [1.0, 2.0, 5.0, 10.0].iter().map(|m| m * mag).find(|w| *w >= raw * (1.0 - 1e-9)).unwrap_or(10.0 * mag);
     let first = (lo / width).floor() as i64;
     let last = (hi / width).floor() as i64;
     let histogram = (first..=last)
