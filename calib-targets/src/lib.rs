@@ -3,17 +3,19 @@
 //! [`Checkerboard`] defines the printed board (inner corners, measured square). [`scene`]
 //! renders photos of it as the FishSense Lite rig would take them under water, with the
 //! laser dot, glints and the exact truth, for tests, benchmarks and the demo; the
-//! `render-scenes` binary writes sets of them to disk.
+//! `render-scenes` binary writes sets of them to disk. [`fish`] renders fish with exact
+//! snout, fork and fork length in the same water, for measuring lengths.
 //!
 //! Conventions are fslcal's (`docs/conventions.md`): camera frame x right, y down, z
 //! forward; `T_cam_target` maps target points into the camera frame; metres, pixels with the
 //! centre of the top-left pixel at (0, 0).
 
+pub mod fish;
 mod output;
 mod random;
 pub mod rig;
 pub mod scene;
 mod target;
 
-pub use output::{camera_yaml, write_camera_yaml, write_scene, JPEG_QUALITY};
+pub use output::{camera_yaml, write_camera_yaml, write_fish, write_scene, JPEG_QUALITY};
 pub use target::{Checkerboard, TargetParseError, MARGIN_SQUARES};

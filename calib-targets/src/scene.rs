@@ -282,6 +282,27 @@ impl BoardShader {
     }
 }
 
+/// Something in front of the background, seen through the water: the checkerboard, or a
+/// fish (`crate::fish`).
+pub trait Surface: Sync {
+    /// Grey reflectance and range (metres) along the ray through normalised coordinates
+    /// `n`; `None` where the ray misses the surface.
+    fn shade(&self, n: [f64; 2]) -> Option<(f64, f64)>;
+    /// Where the laser meets the surface (camera frame) and the reflectance there.
+    fn laser_hit(&self, laser: &LaserLine) -> Option<(Vec3, f64)>;
+}
+
+impl Surface for BoardShader {
+    fn shade(&self, n: [f64; 2]) -> Option<(f64, f64)> {
+        BoardShader::shade(self, n)
+    }
+
+    fn laser_hit(&self, laser: &LaserLine) -> Option<(Vec3, f64)> {
+        let hit = laser.hit(&self.pose.plane())?;
+        Some((hit, self.reflectance_at(&self.pose.to_target(&hit))?))
+    }
+}
+
 /// Smooth value noise for the background, in [0, 1].
 fn value_noise(seed: u64, u: f64, v: f64, cell: f64) -> f64 {
     let (gx, gy) = (u / cell, v / cell);
@@ -373,21 +394,71 @@ fn blur(img: &mut Vec<[f32; 3]>, width: usize, height: usize, sigma: f64) {
         .collect();
 }
 
+/// A rendered photo of any [`Surface`] and what it shows besides the surface itself.
+pub struct SurfacePhoto {
+    pub image: RgbImage,
+    pub dot: Option<DotTruth>,
+    pub glints: Vec<[f64; 2]>,
+    pub impostor: Option<[f64; 2]>,
+}
+
+/// What decides a photo apart from the surface in it.
+pub struct Shot<'a> {
+    pub camera: &'a CameraModel,
+    pub laser: Option<&'a LaserLine>,
+    pub water: Water,
+    pub glints: u32,
+    pub impostor: bool,
+    pub seed: u64,
+}
+
 /// Renders one photo and its truth.
 pub fn render(spec: &SceneSpec) -> RenderedScene {
-    let cam = &spec.camera;
-    let (w, h) = (cam.width_px as usize, cam.height_px as usize);
-    let optics = spec.water.optics();
-    let grid = RayGrid::new(cam, 8);
     let shader = spec.board.map(|(b, p)| BoardShader::new(b, p));
-    let bg_seed = spec.seed ^ 0xB6;
+    let shot = Shot { camera: &spec.camera, laser: spec.laser.as_ref(), water: spec.water, glints: spec.glints, impostor: spec.impostor, seed: spec.seed };
+    let photo = render_surface(&shot, shader.as_ref().map(|s| s as &dyn Surface));
+    let cam = &spec.camera;
+    let corners_px = spec
+        .board
+        .map(|(b, pose)| {
+            b.object_points()
+                .iter()
+                .filter_map(|p| cam.project(&pose.apply(&Vec3::from(*p))))
+                .map(|p| [p.x, p.y])
+                .collect()
+        })
+        .unwrap_or_default();
+    RenderedScene {
+        image: photo.image,
+        truth: SceneTruth {
+            camera: *cam,
+            laser: spec.laser,
+            board: spec.board.map(|(b, _)| b),
+            t_cam_target: spec.board.map(|(_, p)| p),
+            water: spec.water,
+            seed: spec.seed,
+            dot: photo.dot,
+            glints: photo.glints,
+            impostor: photo.impostor,
+            corners_px,
+        },
+    }
+}
+
+/// Renders `surface` (or only the background) as `shot` describes: water, blur, noise, the
+/// laser dot where the laser meets the surface, glints and an impostor.
+pub fn render_surface(shot: &Shot, shader: Option<&dyn Surface>) -> SurfacePhoto {
+    let cam = shot.camera;
+    let (w, h) = (cam.width_px as usize, cam.height_px as usize);
+    let optics = shot.water.optics();
+    let grid = RayGrid::new(cam, 8);
+    let bg_seed = shot.seed ^ 0xB6;
 
     // Supersampled board and background, through the water.
     const SUB: [f64; 3] = [-1.0 / 3.0, 0.0, 1.0 / 3.0];
     let mut img: Vec<[f32; 3]> = (0..h)
         .into_par_iter()
         .flat_map_iter(|y| {
-            let shader = shader.as_ref();
             let (grid, optics) = (&grid, &optics);
             (0..w).map(move |x| {
                 let (u, v) = (x as f64, y as f64);
@@ -418,23 +489,22 @@ pub fn render(spec: &SceneSpec) -> RenderedScene {
         })
         .collect();
 
-    let mut rng = SplitMix::derive(spec.seed, 1);
+    let mut rng = SplitMix::derive(shot.seed, 1);
 
     // The laser dot, where the line meets the physical board.
     let mut dot = None;
-    if let (Some(laser), Some(shader)) = (&spec.laser, &shader) {
-        if let Some(hit) = laser.hit(&shader.pose.plane()) {
-            let q = shader.pose.to_target(&hit);
-            if let (Some(refl), Some(px)) = (shader.reflectance_at(&q), cam.project(&hit)) {
+    if let (Some(laser), Some(shader)) = (shot.laser, shader) {
+        if let Some((hit, refl)) = shader.laser_hit(laser) {
+            if let Some(px) = cam.project(&hit) {
                 if hit.z > 0.0 && cam.contains(px) {
                     let range = (hit - laser.origin()).norm();
                     let back = hit.norm();
                     let diameter = BEAM_DIAMETER_M + BEAM_DIVERGENCE_RAD * range;
-                    let on_black = refl == BLACK;
+                    let on_black = refl <= BLACK;
                     let spread = (BEAM_DIAMETER_M / diameter).powi(2);
                     let g = optics.attenuation_per_m[1];
                     let radiance = LASER_RADIANCE
-                        * if on_black { LASER_ON_BLACK } else { 1.0 }
+                        * (refl / WHITE).min(1.0).max(LASER_ON_BLACK)
                         * spread
                         * (-g * (range + back)).exp();
                     let radius_px = 0.5 * diameter * cam.fx_px / hit.z;
@@ -458,7 +528,7 @@ pub fn render(spec: &SceneSpec) -> RenderedScene {
 
     // Specular glints: bright, small, colourless.
     let mut glints = Vec::new();
-    for _ in 0..spec.glints {
+    for _ in 0..shot.glints {
         let c = Vec2::new(rng.range(40.0, w as f64 - 40.0), rng.range(40.0, h as f64 - 40.0));
         let r = rng.range(1.0, 6.0);
         add_spot(&mut img, w, h, c, r, [900.0, 900.0, 900.0], (r + 1.0, 0.08));
@@ -466,7 +536,7 @@ pub fn render(spec: &SceneSpec) -> RenderedScene {
     }
     // A green reflection of the laser somewhere it is not the dot.
     let mut impostor = None;
-    if spec.impostor {
+    if shot.impostor {
         for _ in 0..100 {
             let c = Vec2::new(rng.range(60.0, w as f64 - 60.0), rng.range(60.0, h as f64 - 60.0));
             let far = dot.as_ref().map_or(true, |d| (Vec2::new(d.pixel[0], d.pixel[1]) - c).norm() >= 60.0);
@@ -485,7 +555,7 @@ pub fn render(spec: &SceneSpec) -> RenderedScene {
     // Sensor noise and 8-bit quantisation; one generator per row keeps it independent of
     // the thread count.
     let noise = optics.noise_levels;
-    let seed = spec.seed;
+    let seed = shot.seed;
     let bytes: Vec<u8> = img
         .par_chunks(w)
         .enumerate()
@@ -499,31 +569,7 @@ pub fn render(spec: &SceneSpec) -> RenderedScene {
         .collect();
     let image = RgbImage::from_raw(w as u32, h as u32, bytes).expect("buffer matches the image size");
 
-    let corners_px = spec
-        .board
-        .map(|(b, pose)| {
-            b.object_points()
-                .iter()
-                .filter_map(|p| cam.project(&pose.apply(&Vec3::from(*p))))
-                .map(|p| [p.x, p.y])
-                .collect()
-        })
-        .unwrap_or_default();
-    RenderedScene {
-        image,
-        truth: SceneTruth {
-            camera: *cam,
-            laser: spec.laser,
-            board: spec.board.map(|(b, _)| b),
-            t_cam_target: spec.board.map(|(_, p)| p),
-            water: spec.water,
-            seed: spec.seed,
-            dot,
-            glints,
-            impostor,
-            corners_px,
-        },
-    }
+    SurfacePhoto { image, dot, glints, impostor }
 }
 
 /// Rotation by `angle` about the unit `axis` (Rodrigues), row-major.
