@@ -3,67 +3,18 @@
 //! distance from masks and from labels, a Label Studio export round trip, and the flags that
 //! withhold a number.
 
-use calib_targets::fish::{fish_scene_set, render_fish, FishTruth};
-use calib_targets::scene::Water;
-use calib_targets::write_fish;
-use fslcal::calibration::camera_json;
-use rayon::prelude::*;
+mod common;
+
+use calib_targets::fish::FishTruth;
+use common::{fish_set, FishSet};
 use serde_json::{json, Value};
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::process::{Command, Output};
 use std::sync::OnceLock;
 
-struct FishSet {
-    dir: PathBuf,
-    photos: Vec<PathBuf>,
-    truths: Vec<FishTruth>,
-    cal: PathBuf,
-    dots: PathBuf,
-}
-
-/// Ten fish from 0.6 to 4.5 m, rendered once for this test binary, with a calibration that
-/// is the rig's truth (a small covariance, depths 0.5-4.6 m) and the true dots as a CSV.
 fn set() -> &'static FishSet {
     static SET: OnceLock<FishSet> = OnceLock::new();
-    SET.get_or_init(|| {
-        let dir = Path::new(env!("CARGO_TARGET_TMPDIR")).join("fish-measure");
-        let _ = std::fs::remove_dir_all(&dir);
-        std::fs::create_dir_all(dir.join("masks")).unwrap();
-        let specs = fish_scene_set(10, 21, Water::Clear, 0.6, 4.5);
-        let truths: Vec<FishTruth> = specs
-            .par_iter()
-            .enumerate()
-            .map(|(i, spec)| {
-                let fish = render_fish(spec);
-                write_fish(&dir, &format!("fish_{i:02}"), &fish).unwrap();
-                // Masks live in their own folder, as a segmenter's output would.
-                std::fs::rename(dir.join(format!("fish_{i:02}_mask.png")), dir.join("masks").join(format!("fish_{i:02}.png"))).unwrap();
-                fish.truth
-            })
-            .collect();
-        let photos: Vec<PathBuf> = (0..truths.len()).map(|i| dir.join(format!("fish_{i:02}.jpg"))).collect();
-        let t = &truths[0];
-        let laser = t.laser.unwrap();
-        let cal = dir.join("cal.json");
-        let cal_json = json!({
-            "camera": camera_json(&t.camera),
-            "laser": {
-                "origin_m": laser.origin_m,
-                "direction": laser.direction,
-                "covariance": [[1e-8, 0.0, 0.0, 0.0], [0.0, 1e-8, 0.0, 0.0], [0.0, 0.0, 1e-9, 0.0], [0.0, 0.0, 0.0, 1e-9]],
-            },
-            "depth_range_m": [0.5, 4.6],
-        });
-        std::fs::write(&cal, serde_json::to_vec_pretty(&cal_json).unwrap()).unwrap();
-        let dots = dir.join("dots.csv");
-        let mut csv = String::from("file,x,y\n");
-        for (p, t) in photos.iter().zip(&truths) {
-            let d = t.dot.as_ref().expect("every fish has the dot on it");
-            csv += &format!("{},{},{}\n", p.file_name().unwrap().to_string_lossy(), d.pixel[0], d.pixel[1]);
-        }
-        std::fs::write(&dots, csv).unwrap();
-        FishSet { dir, photos, truths, cal, dots }
-    })
+    SET.get_or_init(|| fish_set("fish-measure", 10, 21))
 }
 
 fn fslcal(args: &[String]) -> Output {

@@ -259,7 +259,8 @@ pub fn pose_with_dot(shape: &FishShape, laser: &LaserLine, depth_m: f64, heading
 
 /// A dive's fish photos: the TG-6 rig, fish of 0.18-0.5 m fork length (no longer than a
 /// third of the frame's width at their distance), at distances spread evenly over
-/// `near_m..far_m`, every other one bent, most with forked tails, the laser dot on each.
+/// `near_m..far_m`, every other one bent into a C (75-95 degrees from snout to fork), most
+/// with forked tails, the laser dot on each.
 pub fn fish_scene_set(count: usize, seed: u64, water: Water, near_m: f64, far_m: f64) -> Vec<FishSpec> {
     let camera = crate::rig::tg6_camera();
     let laser = crate::rig::fsl_laser();
@@ -272,7 +273,7 @@ pub fn fish_scene_set(count: usize, seed: u64, water: Water, near_m: f64, far_m:
             let mut shape = FishShape {
                 fork_length_m: rng.range(0.18, 0.5).min(frame_m / 3.0),
                 depth: rng.range(0.24, 0.34),
-                bend_rad: if i % 2 == 1 { rng.range(0.6, 0.9) } else { 0.0 },
+                bend_rad: if i % 2 == 1 { rng.range(1.3, 1.7) } else { 0.0 },
                 fork_depth: if i % 4 == 3 { 0.0 } else { rng.range(0.07, 0.14) },
             };
             let mirrored = rng.unit() < 0.5;

@@ -181,8 +181,6 @@ pub fn fish_ends(mask: &Mask) -> Result<FishEnds, FishError> {
     );
     centre.push(tail_px);
     let chord_px = (tail_px - head_px).norm();
-    // A deep body's mid-depth line bows with its humped back (up to 9% on the lab's straight
-    // fish); only a clearly bent fish is measured along its spine.
     let bent = spine.bow() > BENT_BOW;
     Ok(FishEnds {
         head_px,
@@ -341,8 +339,11 @@ impl Spine {
     }
 }
 
-/// A spine bowing more than this share of its chord is a bent fish, measured along it.
-const BENT_BOW: f64 = 0.13;
+/// A spine bowing more than this share of its chord is a bent fish, measured along it. Real
+/// fish seen from the side have a mid-depth line that bows with their humped back (up to 9%
+/// on the lab's straight fish), so only a clear bend counts: a fish bent less loses up to
+/// 2.5% of its length to the straight line (arc over chord at a 0.1 bow).
+const BENT_BOW: f64 = 0.1;
 
 /// A tail fin widens again behind the peduncle by at least this factor; a head does not.
 const FLARE: f64 = 1.25;
