@@ -311,13 +311,7 @@ fn search_near_prediction(job: &LaserJob, path: &Path, evidence: &PhotoEvidence,
             predicted + Vec2::new(a.cos(), a.sin()) * radius / (std::f64::consts::PI / 8.0).cos()
         })
         .collect();
-    let sensitive = DotDetectorParams {
-        threshold_sigma: 3.5,
-        min_excess_levels: 5.0,
-        min_snr: 5.0,
-        background_radius_px: job.detector.background_radius_px,
-        max_area_px: job.detector.max_area_px,
-    };
+    let sensitive = job.detector.sensitive();
     let search = |view: &ColourView, offset: Vec2| {
         let region = SearchRegion {
             polygon: polygon.iter().map(|p| p - offset).collect(),

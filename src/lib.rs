@@ -9,6 +9,7 @@ pub mod calibration;
 pub mod camera_file;
 pub mod cli;
 pub mod dot;
+pub mod dot_on_line;
 pub mod fish;
 #[cfg(feature = "vision")]
 pub mod laser_calibration;

@@ -7,10 +7,10 @@
 //! along its body as on a measuring board. Around the spine: a rounded head, a deep body,
 //! a dorsal fin, a narrow caudal peduncle and a caudal fin whose two lobes reach
 //! `fork_depth` beyond the fork. The photo comes from the same renderer as the board scenes
-//! (`scene::render_surface`): water, blur, noise, the laser dot where the laser meets the fish.
+//! (`scene::render_setup`, the fish as a target surface): water, blur, noise, the laser dot where the laser meets the fish.
 
 use crate::random::SplitMix;
-use crate::scene::{render_surface, DotTruth, RayGrid, Shot, Surface, Water};
+use crate::scene::{render_setup, DotTruth, Pose, RayGrid, Setup, Surface, Water};
 use fslcal_core::{CameraModel, LaserLine, Vec2, Vec3};
 use image::{GrayImage, RgbImage};
 use rayon::prelude::*;
@@ -98,6 +98,11 @@ impl FishShape {
         w.abs() <= half || (w < 0.0 && -w <= half + dorsal)
     }
 
+    /// Albedo at a target-frame point (the fish's plane frame), `None` off the fish.
+    pub(crate) fn albedo_at(&self, q: &Vec3) -> Option<[f64; 3]> {
+        self.contains(Vec2::new(q.x, q.y)).then_some([FISH_ALBEDO; 3])
+    }
+
     /// Points around the outline, plane frame, for keeping the fish in the frame.
     fn outline_samples(&self) -> Vec<Vec2> {
         let l = self.fork_length_m;
@@ -130,40 +135,18 @@ pub struct FishPose {
 impl FishPose {
     /// Camera-frame point of a plane-frame point.
     fn to_camera(&self, q: Vec2) -> Vec3 {
-        let q = if self.mirrored { Vec2::new(q.x, -q.y) } else { q };
-        let (c, s) = (self.heading_rad.cos(), self.heading_rad.sin());
-        Vec3::new(self.snout_xy_m[0] + c * q.x - s * q.y, self.snout_xy_m[1] + s * q.x + c * q.y, self.depth_m)
+        self.t_cam_target().apply(&Vec3::new(q.x, q.y, 0.0))
     }
 
-    /// Plane-frame point of a camera-frame (x, y) in the fish's plane.
-    fn to_plane(&self, x: f64, y: f64) -> Vec2 {
-        let (dx, dy) = (x - self.snout_xy_m[0], y - self.snout_xy_m[1]);
+    /// `T_cam_target` with the fish's plane frame as the target: turned by the heading about
+    /// the optical axis, mirrored across the spine when asked (a reflection, still orthogonal).
+    pub fn t_cam_target(&self) -> Pose {
         let (c, s) = (self.heading_rad.cos(), self.heading_rad.sin());
-        let q = Vec2::new(c * dx + s * dy, -s * dx + c * dy);
-        if self.mirrored {
-            Vec2::new(q.x, -q.y)
-        } else {
-            q
+        let m = if self.mirrored { -1.0 } else { 1.0 };
+        Pose {
+            rotation: [[c, -s * m, 0.0], [s, c * m, 0.0], [0.0, 0.0, 1.0]],
+            translation_m: [self.snout_xy_m[0], self.snout_xy_m[1], self.depth_m],
         }
-    }
-}
-
-struct FishSurface {
-    shape: FishShape,
-    pose: FishPose,
-}
-
-impl Surface for FishSurface {
-    fn shade(&self, n: [f64; 2]) -> Option<(f64, f64)> {
-        let z = self.pose.depth_m;
-        self.shape
-            .contains(self.pose.to_plane(n[0] * z, n[1] * z))
-            .then(|| (FISH_ALBEDO, z * (1.0 + n[0] * n[0] + n[1] * n[1]).sqrt()))
-    }
-
-    fn laser_hit(&self, laser: &LaserLine) -> Option<(Vec3, f64)> {
-        let hit = laser.point_at_depth(self.pose.depth_m);
-        self.shape.contains(self.pose.to_plane(hit.x, hit.y)).then_some((hit, FISH_ALBEDO))
     }
 }
 
@@ -203,17 +186,29 @@ pub struct RenderedFish {
 
 /// Renders a fish photo, its mask and its truth.
 pub fn render_fish(spec: &FishSpec) -> RenderedFish {
-    let surface = FishSurface { shape: spec.shape, pose: spec.pose };
-    let shot = Shot { camera: &spec.camera, laser: spec.laser.as_ref(), water: spec.water, glints: 0, impostor: false, seed: spec.seed };
-    let photo = render_surface(&shot, Some(&surface));
+    let pose = spec.pose.t_cam_target();
+    let photo = render_setup(&Setup {
+        camera: spec.camera,
+        laser: spec.laser,
+        target: Some((Surface::Fish(&spec.shape), pose)),
+        water: spec.water,
+        glints: 0,
+        impostor: false,
+        seed: spec.seed,
+    });
     let cam = &spec.camera;
     let grid = RayGrid::new(cam, 8);
     let (w, h) = (cam.width_px as usize, cam.height_px as usize);
+    let z = spec.pose.depth_m;
     let bits: Vec<u8> = (0..h)
         .into_par_iter()
         .flat_map_iter(|y| {
-            let (grid, surface) = (&grid, &surface);
-            (0..w).map(move |x| if surface.shade(grid.normalised(x as f64, y as f64)).is_some() { 255 } else { 0 })
+            let (grid, shape) = (&grid, &spec.shape);
+            (0..w).map(move |x| {
+                let n = grid.normalised(x as f64, y as f64);
+                let q = pose.to_target(&Vec3::new(n[0] * z, n[1] * z, z));
+                if shape.contains(Vec2::new(q.x, q.y)) { 255 } else { 0 }
+            })
         })
         .collect();
     let mask = GrayImage::from_raw(w as u32, h as u32, bits).expect("buffer matches the image size");
@@ -234,7 +229,7 @@ pub fn render_fish(spec: &FishSpec) -> RenderedFish {
             snout_px: project(0.0),
             fork_px: project(spec.shape.fork_length_m),
             fork_length_m: spec.shape.fork_length_m,
-            dot: photo.dot,
+            dot: photo.truth.dot,
         },
     }
 }
@@ -314,8 +309,9 @@ mod tests {
         let cam = crate::rig::tg6_camera();
         for spec in fish_scene_set(8, 4, Water::Clear, 0.6, 4.0) {
             assert!(fish_in_frame(&cam, &spec.shape, &spec.pose, 40.0), "{spec:?}");
-            let surface = FishSurface { shape: spec.shape, pose: spec.pose };
-            assert!(surface.laser_hit(&spec.laser.unwrap()).is_some(), "dot misses the fish: {spec:?}");
+            let hit = spec.laser.unwrap().point_at_depth(spec.pose.depth_m);
+            let q = spec.pose.t_cam_target().to_target(&hit);
+            assert!(spec.shape.contains(Vec2::new(q.x, q.y)), "dot misses the fish: {spec:?}");
         }
     }
 }

@@ -167,10 +167,21 @@ fn mask_only(args: &MeasureArgs, mask: &Path) -> anyhow::Result<ExitCode> {
     Ok(ExitCode::SUCCESS)
 }
 
-/// The laser dot of one photo: the automatic search in a fish photo (no target) is being
-/// written on the `slate` branch; until it lands, dots come from `--dot`, `--dots` or labels.
-fn search_dot(_cal: &Calibration, _photo: &Path) -> Option<Vec2> {
-    None
+/// The laser dot of a fish photo, searched for along the calibrated laser's image (no
+/// target to narrow it down).
+#[cfg(feature = "vision")]
+fn search_dot(cal: &Calibration, photo: &Path) -> Result<Vec2, Withheld> {
+    use crate::dot_on_line::{find_dot_on_laser_line, LineSearch};
+    let no_dot = |why: String| Withheld::NoDot { why };
+    let decoded = crate::vision::EncodedPhoto::read(photo).and_then(|p| p.decode_full()).map_err(|e| no_dot(e.to_string()))?;
+    find_dot_on_laser_line(&decoded.colour(), &cal.camera, &cal.laser, &LineSearch::default())
+        .map(|d| d.pixel)
+        .map_err(|e| no_dot(e.to_string()))
+}
+
+#[cfg(not(feature = "vision"))]
+fn search_dot(_cal: &Calibration, _photo: &Path) -> Result<Vec2, Withheld> {
+    Err(Withheld::NoDot { why: "built without the vision feature, so dots must be given (--dot, --dots or labels)".into() })
 }
 
 /// One fish in one photo.
@@ -197,12 +208,13 @@ fn single(args: &MeasureArgs) -> anyhow::Result<ExitCode> {
     if cut {
         flags.push(Withheld::CutByEdge);
     }
-    let dot = args.dot.or_else(|| search_dot(&cal, photo));
-    let params = MeasureParams { dot_sigma_px: args.dot_sigma_px, ..MeasureParams::default() };
-    let result = match dot {
-        None => Err(Withheld::NoDot),
-        Some(d) => measure(&cal, head, tail, ratio, d, &params),
+    let dot = match args.dot {
+        Some(d) => Ok(d),
+        None => search_dot(&cal, photo),
     };
+    let params = MeasureParams { dot_sigma_px: args.dot_sigma_px, ..MeasureParams::default() };
+    let result = dot.clone().and_then(|d| measure(&cal, head, tail, ratio, d, &params));
+    let dot = dot.ok();
     let length = match (result, flags.is_empty()) {
         (Ok(l), true) => l,
         (Err(w), _) => {
@@ -309,12 +321,17 @@ fn measure_photo(cal: &Calibration, photo: &Path, source: &Ends, dots: &[(String
             fish.push((None, ends, None));
         }
     }
+    // One search per photo, however many fish it has.
+    let searched = std::cell::OnceCell::new();
     fish.into_iter()
         .enumerate()
         .map(|(i, (species, ends, label_dot))| {
-            let dot = label_dot.or_else(hand_dot).or_else(|| search_dot(cal, photo));
+            let dot = match label_dot.or_else(hand_dot) {
+                Some(d) => Ok(d),
+                None => searched.get_or_init(|| search_dot(cal, photo)).clone(),
+            };
             let mut flags: Vec<Withheld> = body.iter().cloned().collect();
-            let mut row = FishRow { photo: photo.to_path_buf(), fish: i + 1, species, head_px: None, tail_px: None, dot_px: dot, head_call: None, result: Err(vec![]) };
+            let mut row = FishRow { photo: photo.to_path_buf(), fish: i + 1, species, head_px: None, tail_px: None, dot_px: dot.clone().ok(), head_call: None, result: Err(vec![]) };
             let mut length = None;
             match ends {
                 Err(w) => flags.push(w),
@@ -323,10 +340,9 @@ fn measure_photo(cal: &Calibration, photo: &Path, source: &Ends, dots: &[(String
                     if cut {
                         flags.push(Withheld::CutByEdge);
                     }
-                    match dot.map(|d| measure(cal, h, t, ratio, d, params)) {
-                        None => flags.push(Withheld::NoDot),
-                        Some(Err(w)) => flags.push(w),
-                        Some(Ok(l)) => length = Some(l),
+                    match dot.and_then(|d| measure(cal, h, t, ratio, d, params)) {
+                        Err(w) => flags.push(w),
+                        Ok(l) => length = Some(l),
                     }
                 }
             }

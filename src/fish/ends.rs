@@ -154,8 +154,9 @@ pub fn fish_ends(mask: &Mask) -> Result<FishEnds, FishError> {
     let path: Vec<Vec2> = medial_path(&body, &body_clearance, a, b).into_iter().map(to_full).collect();
     let spine = Spine::fit(&path);
 
-    let end_a = examine_end(&fish, &spine, false);
-    let end_b = examine_end(&fish, &spine, true);
+    let bent = spine.bow() > BENT_BOW;
+    let end_a = examine_end(&fish, &spine, false, bent);
+    let end_b = examine_end(&fish, &spine, true, bent);
     let (tail_is_b, head_call) = match (end_a.flare, end_b.flare, end_a.fork.is_some(), end_b.fork.is_some()) {
         (fa, fb, _, _) if fb >= FLARE && fa < FLARE && fb > 1.3 * fa => (true, HeadCall::NarrowPeduncle),
         (fa, fb, _, _) if fa >= FLARE && fb < FLARE && fa > 1.3 * fb => (false, HeadCall::NarrowPeduncle),
@@ -181,7 +182,6 @@ pub fn fish_ends(mask: &Mask) -> Result<FishEnds, FishError> {
     );
     centre.push(tail_px);
     let chord_px = (tail_px - head_px).norm();
-    let bent = spine.bow() > BENT_BOW;
     Ok(FishEnds {
         head_px,
         tail_px,
@@ -362,12 +362,13 @@ struct EndLook {
     flare: f64,
 }
 
-/// Looks at the end of the spine (`t = 1` when `at_end`, else `t = 0`) in the whole
-/// full-resolution `fish`.
-fn examine_end(fish: &Mask, spine: &Spine, at_end: bool) -> EndLook {
-    let (t_end, t_base, t_mid) = if at_end { (1.0, 0.9, 0.6) } else { (0.0, 0.1, 0.4) };
-    // The end's direction over its last 40%: the fitted bow's very end tangent swings with
-    // the fins.
+/// Looks at the end of the spine (`t = 1` when `at_end`, else `t = 0`) of a `bent` or
+/// straight fish in the whole full-resolution `fish`.
+fn examine_end(fish: &Mask, spine: &Spine, at_end: bool, bent: bool) -> EndLook {
+    // The end's direction over its last 40% (the fitted bow's very end tangent swings with
+    // the fins), over its last 20% on a bent fish, whose end turns away.
+    let span = if bent { 0.2 } else { 0.4 };
+    let (t_end, t_base, t_mid) = if at_end { (1.0, 0.9, 1.0 - span) } else { (0.0, 0.1, span) };
     let outward = (spine.at(t_end) - spine.at(t_mid)).try_normalize(1e-9).unwrap_or(spine.along);
     let across = Vec2::new(-outward.y, outward.x);
     let base = spine.at(t_base);

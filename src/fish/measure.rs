@@ -9,8 +9,8 @@ use serde::Serialize;
 #[derive(Clone, Debug, PartialEq, Serialize)]
 #[serde(rename_all = "snake_case", tag = "flag")]
 pub enum Withheld {
-    /// No laser dot in the photo: no distance.
-    NoDot,
+    /// No laser dot in the photo (or none clear enough): no distance.
+    NoDot { why: String },
     /// The dot is farther from the calibrated laser's image than the calibration's
     /// uncertainty and the dot's localisation explain: the laser has moved, or the dot is
     /// a reflection; the calibration does not hold for this photo.
@@ -31,7 +31,7 @@ impl Withheld {
     /// One line for the summary table.
     pub fn describe(&self) -> String {
         match self {
-            Withheld::NoDot => "no laser dot".into(),
+            Withheld::NoDot { why } => format!("no laser dot: {why}"),
             Withheld::DotOffLaserLine { offset_px, allowed_px } => {
                 format!("dot {offset_px:.1} px off the laser line (allowed {allowed_px:.1} px): calibration does not hold")
             }
