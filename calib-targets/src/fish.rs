@@ -161,15 +161,11 @@ pub struct FishSpec {
     pub seed: u64,
 }
 
-/// What a fish photo shows, exactly.
+/// What a fish photo shows, exactly: its spec, and where the snout, fork and dot appear.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct FishTruth {
-    pub camera: CameraModel,
-    pub laser: Option<LaserLine>,
-    pub shape: FishShape,
-    pub pose: FishPose,
-    pub water: Water,
-    pub seed: u64,
+    #[serde(flatten)]
+    pub spec: FishSpec,
     /// Snout tip and fork (the notch's bottom), pixels.
     pub snout_px: [f64; 2],
     pub fork_px: [f64; 2],
@@ -220,12 +216,7 @@ pub fn render_fish(spec: &FishSpec) -> RenderedFish {
         image: photo.image,
         mask,
         truth: FishTruth {
-            camera: *cam,
-            laser: spec.laser,
-            shape: spec.shape,
-            pose: spec.pose,
-            water: spec.water,
-            seed: spec.seed,
+            spec: spec.clone(),
             snout_px: project(0.0),
             fork_px: project(spec.shape.fork_length_m),
             fork_length_m: spec.shape.fork_length_m,

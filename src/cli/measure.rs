@@ -462,30 +462,18 @@ fn table(rows: &[FishRow]) -> String {
     let width = rows.iter().map(|r| name_of(&r.photo).len()).max().unwrap_or(5).max(5);
     let mut s = format!("  {:width$}  {:>4}  {:12}  {:>20}  {:>15}  {}\n", "photo", "fish", "species", "length mm (1-sigma)", "distance m", "status");
     for r in rows {
-        let species = r.species.as_deref().unwrap_or("-");
-        match &r.result {
-            Ok(l) => {
-                s += &format!(
-                    "  {:width$}  {:>4}  {:12}  {:>20}  {:>15}  measured\n",
-                    name_of(&r.photo),
-                    r.fish,
-                    species,
-                    format!("{:.1} ± {:.1}", l.length_m * 1e3, l.length_sigma_m * 1e3),
-                    format!("{:.3} ± {:.3}", l.distance_m, l.distance_sigma_m),
-                )
-            }
+        let (length, distance, status) = match &r.result {
+            Ok(l) => (
+                format!("{:.1} ± {:.1}", l.length_m * 1e3, l.length_sigma_m * 1e3),
+                format!("{:.3} ± {:.3}", l.distance_m, l.distance_sigma_m),
+                "measured".to_string(),
+            ),
             Err(flags) => {
-                s += &format!(
-                    "  {:width$}  {:>4}  {:12}  {:>20}  {:>15}  withheld: {}\n",
-                    name_of(&r.photo),
-                    r.fish,
-                    species,
-                    "-",
-                    "-",
-                    flags.iter().map(Withheld::describe).collect::<Vec<_>>().join("; ")
-                )
+                ("-".into(), "-".into(), format!("withheld: {}", flags.iter().map(Withheld::describe).collect::<Vec<_>>().join("; ")))
             }
-        }
+        };
+        let species = r.species.as_deref().unwrap_or("-");
+        s += &format!("  {:width$}  {:>4}  {species:12}  {length:>20}  {distance:>15}  {status}\n", name_of(&r.photo), r.fish);
     }
     s
 }

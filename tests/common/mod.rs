@@ -109,10 +109,10 @@ pub fn fish_set(name: &str, count: usize, seed: u64) -> FishSet {
             .collect();
         let photos: Vec<PathBuf> = (0..truths.len()).map(|i| dir.join(format!("fish_{i:02}.jpg"))).collect();
         let t = &truths[0];
-        let laser = t.laser.unwrap();
+        let laser = t.spec.laser.unwrap();
         let cal = dir.join("cal.json");
         let cal_json = json!({
-            "camera": camera_json(&t.camera),
+            "camera": camera_json(&t.spec.camera),
             "laser": {
                 "origin_m": laser.origin_m,
                 "direction": laser.direction,
