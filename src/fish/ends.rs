@@ -118,12 +118,19 @@ const EDGE_MARGIN: f64 = 0.005;
 
 /// A fish's end points and fork length from its mask (see the module docs).
 pub fn fish_ends(mask: &Mask) -> Result<FishEnds, FishError> {
-    let fish = mask.largest_component();
+    // Work on the mask's content only: a fish fills a few percent of a 12-megapixel frame.
+    let (cx0, cy0, cx1, cy1) = bounding_box(mask).ok_or(FishError::TooSmall { pixels: 0 })?;
+    let fish = mask.crop(cx0, cy0, cx1 - cx0 + 1, cy1 - cy0 + 1).largest_component();
     if fish.count() < 50 {
         return Err(FishError::TooSmall { pixels: fish.count() });
     }
-    let cut_by_edge = fish.near_border((EDGE_MARGIN * fish.width.max(fish.height) as f64).round() as usize);
-    let (x0, y0, x1, y1) = bounding_box(&fish);
+    let margin = (EDGE_MARGIN * mask.width.max(mask.height) as f64).round() as usize;
+    let cut_by_edge = fish.pixels().any(|(x, y)| {
+        let (x, y) = (x + cx0, y + cy0);
+        x <= margin || y <= margin || x + margin >= mask.width - 1 || y + margin >= mask.height - 1
+    });
+    let offset = Vec2::new(cx0 as f64, cy0 as f64);
+    let (x0, y0, x1, y1) = bounding_box(&fish).expect("the fish has pixels");
     let factor = ((x1 - x0 + 1).max(y1 - y0 + 1)).div_ceil(WORKING_SIZE_PX).max(1);
     // Crop with a margin of one working pixel of background all round.
     let (ox, oy) = (x0 as i64 - factor as i64, y0 as i64 - factor as i64);
@@ -183,19 +190,19 @@ pub fn fish_ends(mask: &Mask) -> Result<FishEnds, FishError> {
     centre.push(tail_px);
     let chord_px = (tail_px - head_px).norm();
     Ok(FishEnds {
-        head_px,
-        tail_px,
+        head_px: head_px + offset,
+        tail_px: tail_px + offset,
         length_px: if bent { arc_length(&centre).max(chord_px) } else { chord_px },
         chord_px,
         bent,
         head_call,
         tail_point,
         cut_by_edge,
-        centreline_px: centre,
+        centreline_px: centre.into_iter().map(|p| p + offset).collect(),
     })
 }
 
-fn bounding_box(m: &Mask) -> (usize, usize, usize, usize) {
+fn bounding_box(m: &Mask) -> Option<(usize, usize, usize, usize)> {
     let (mut x0, mut y0, mut x1, mut y1) = (usize::MAX, usize::MAX, 0, 0);
     for (x, y) in m.pixels() {
         x0 = x0.min(x);
@@ -203,7 +210,7 @@ fn bounding_box(m: &Mask) -> (usize, usize, usize, usize) {
         x1 = x1.max(x);
         y1 = y1.max(y);
     }
-    (x0, y0, x1, y1)
+    (x0 <= x1).then_some((x0, y0, x1, y1))
 }
 
 const STEPS: [(i64, i64, f64); 8] = [

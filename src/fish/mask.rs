@@ -97,6 +97,16 @@ impl Mask {
         Mask { width: w, height: h, bits: label.iter().map(|&l| l == best.0 && l != 0).collect() }
     }
 
+    /// The `width x height` window with its top-left pixel at `(x0, y0)` (inside the mask).
+    pub fn crop(&self, x0: usize, y0: usize, width: usize, height: usize) -> Mask {
+        let mut out = Mask::new(width, height);
+        for y in 0..height {
+            let row = (y0 + y) * self.width + x0;
+            out.bits[y * width..(y + 1) * width].copy_from_slice(&self.bits[row..row + width]);
+        }
+        out
+    }
+
     /// Whether the fish comes within `margin_px` of the image border: part of it may be
     /// outside the frame (segmenters stop a few pixels short of the edge).
     pub fn near_border(&self, margin_px: usize) -> bool {
