@@ -17,6 +17,7 @@ pub mod exif;
 pub mod fishsense_pkg;
 pub mod keys;
 pub mod dot_on_line;
+pub mod fish;
 #[cfg(feature = "vision")]
 pub mod laser_calibration;
 pub mod laser_fit;

@@ -5,12 +5,15 @@
 //! laser dot, glints and the exact truth, for tests, benchmarks and the demo; the
 //! `render-scenes` binary writes sets of them to disk. [`orf`] wraps a rendered photo in a
 //! synthetic Olympus TG-6 raw file.
+//! `render-scenes` binary writes sets of them to disk. [`fish`] renders fish with exact
+//! snout, fork and fork length in the same water, for measuring lengths.
 //!
 //! Conventions are fslcal's (`docs/conventions.md`): camera frame x right, y down, z
 //! forward; `T_cam_target` maps target points into the camera frame; metres, pixels with the
 //! centre of the top-left pixel at (0, 0).
 
 pub mod orf;
+pub mod fish;
 mod output;
 mod random;
 pub mod rig;
@@ -18,6 +21,6 @@ pub mod scene;
 pub mod slate;
 mod target;
 
-pub use output::{camera_yaml, write_camera_yaml, write_scene, JPEG_QUALITY};
+pub use output::{camera_yaml, write_camera_yaml, write_fish, write_scene, JPEG_QUALITY};
 pub use slate::{KnownLength, Slate, SlateError};
 pub use target::{Checkerboard, TargetParseError, MARGIN_SQUARES};

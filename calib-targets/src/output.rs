@@ -1,5 +1,6 @@
 //! Writing scenes to disk: the photo as JPEG, its truth as JSON, the camera as OpenCV YAML.
 
+use crate::fish::RenderedFish;
 use crate::scene::RenderedScene;
 use fslcal_core::CameraModel;
 use std::fs::File;
@@ -39,6 +40,22 @@ pub fn write_scene(dir: &Path, name: &str, scene: &RenderedScene) -> io::Result<
     })?;
     write_atomically(&dir.join(format!("{name}.truth.json")), |w| {
         serde_json::to_writer_pretty(&mut *w, &scene.truth).map_err(io::Error::other)?;
+        w.write_all(b"\n")
+    })
+}
+
+/// Writes `DIR/NAME.jpg`, its mask `DIR/NAME_mask.png` and `DIR/NAME.truth.json`.
+pub fn write_fish(dir: &Path, name: &str, fish: &RenderedFish) -> io::Result<()> {
+    write_atomically(&dir.join(format!("{name}.jpg")), |w| {
+        image::codecs::jpeg::JpegEncoder::new_with_quality(w, JPEG_QUALITY)
+            .encode_image(&fish.image)
+            .map_err(io::Error::other)
+    })?;
+    write_atomically(&dir.join(format!("{name}_mask.png")), |w| {
+        fish.mask.write_to(w, image::ImageFormat::Png).map_err(io::Error::other)
+    })?;
+    write_atomically(&dir.join(format!("{name}.truth.json")), |w| {
+        serde_json::to_writer_pretty(&mut *w, &fish.truth).map_err(io::Error::other)?;
         w.write_all(b"\n")
     })
 }

@@ -276,11 +276,13 @@ impl SlateTexture {
     }
 }
 
-/// What is printed or stuck on the target.
+/// What is printed or stuck on the target, or the target itself: a fish's flank in its
+/// plane (`crate::fish`).
 #[derive(Clone, Copy)]
-enum Surface<'a> {
+pub(crate) enum Surface<'a> {
     Board(Checkerboard),
     Slate(&'a SlateTexture),
+    Fish(&'a crate::fish::FishShape),
 }
 
 impl Surface<'_> {
@@ -299,6 +301,7 @@ impl Surface<'_> {
                 Some([if on_squares && Checkerboard::square_colour_is_black(i, j) { BLACK } else { WHITE }; 3])
             }
             Surface::Slate(t) => t.albedo_at(q),
+            Surface::Fish(f) => f.albedo_at(q),
         }
     }
 
@@ -306,7 +309,7 @@ impl Surface<'_> {
     fn laser_return(&self, albedo: [f64; 3]) -> f64 {
         match self {
             Surface::Board(_) => if albedo[1] == BLACK { LASER_ON_BLACK } else { 1.0 },
-            Surface::Slate(_) => (albedo[1] / WHITE).clamp(LASER_ON_BLACK, 1.0),
+            Surface::Slate(_) | Surface::Fish(_) => (albedo[1] / WHITE).clamp(LASER_ON_BLACK, 1.0),
         }
     }
 }
@@ -492,17 +495,17 @@ pub fn render_slate(slate: &SlateTexture, spec: &SlateSpec) -> RenderedScene {
 }
 
 /// What decides a photo, whatever the target.
-struct Setup<'a> {
-    camera: CameraModel,
-    laser: Option<LaserLine>,
-    target: Option<(Surface<'a>, Pose)>,
-    water: Water,
-    glints: u32,
-    impostor: bool,
-    seed: u64,
+pub(crate) struct Setup<'a> {
+    pub camera: CameraModel,
+    pub laser: Option<LaserLine>,
+    pub target: Option<(Surface<'a>, Pose)>,
+    pub water: Water,
+    pub glints: u32,
+    pub impostor: bool,
+    pub seed: u64,
 }
 
-fn render_setup(spec: &Setup) -> RenderedScene {
+pub(crate) fn render_setup(spec: &Setup) -> RenderedScene {
     let cam = &spec.camera;
     let (w, h) = (cam.width_px as usize, cam.height_px as usize);
     let optics = spec.water.optics();

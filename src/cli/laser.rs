@@ -1,5 +1,6 @@
 //! `fslcal laser`: the command a diver runs before a dive.
 
+use super::pixels::{parse_pixel, read_dots_csv};
 use super::progress;
 use super::signing::{self, SigningArgs};
 use crate::atomic_file::write_atomically;
@@ -11,7 +12,7 @@ use crate::laser_fit::{Gates, Method};
 use anyhow::{bail, Context};
 use crate::calibration::camera_json;
 use crate::photo_identity::{check_photos, photos_exif};
-use fslcal_core::{CameraModel, Vec2};
+use fslcal_core::CameraModel;
 use serde_json::json;
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
@@ -90,28 +91,11 @@ fn parse_range_mm(s: &str) -> Result<(f64, f64), String> {
     Ok((a / 1e3, b / 1e3))
 }
 
-fn parse_pixel(s: &str) -> Option<Vec2> {
-    let (x, y) = s.split_once(',')?;
-    let (x, y) = (x.trim().parse::<f64>().ok()?, y.trim().parse::<f64>().ok()?);
-    (x.is_finite() && y.is_finite()).then(|| Vec2::new(x, y))
-}
-
 fn hand_dots(args: &LaserArgs) -> anyhow::Result<HandDots> {
     let mut dots = HandDots::default();
     if let Some(csv) = &args.dots {
-        let text = std::fs::read_to_string(csv).with_context(|| format!("{}: cannot read the dots file", csv.display()))?;
-        for (n, line) in text.lines().enumerate() {
-            let line = line.trim();
-            if line.is_empty() || line.starts_with('#') {
-                continue;
-            }
-            let (file, xy) = line.split_once(',').unwrap_or((line, ""));
-            match parse_pixel(xy) {
-                Some(px) => dots.insert(Path::new(file.trim()), px),
-                // A header row names its columns.
-                None if n == 0 => continue,
-                None => bail!("{}:{}: expected `file,x,y` with x and y in pixels, got `{line}`", csv.display(), n + 1),
-            }
+        for (file, px) in read_dots_csv(csv)? {
+            dots.insert(Path::new(&file), px);
         }
     }
     for d in &args.dot {

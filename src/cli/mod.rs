@@ -14,6 +14,8 @@ mod check;
 mod laser;
 #[cfg(feature = "vision")]
 mod validate;
+mod measure;
+mod pixels;
 mod progress;
 mod signing;
 mod units;
@@ -50,6 +52,7 @@ enum Command {
     Validate(validate::ValidateArgs),
     #[cfg(feature = "vision")]
     Check(check::CheckArgs),
+    Measure(measure::MeasureArgs),
 }
 
 /// Parses the command line and runs the subcommand.
@@ -71,5 +74,6 @@ pub fn run() -> anyhow::Result<ExitCode> {
         Command::Validate(args) => validate::run(args),
         #[cfg(feature = "vision")]
         Command::Check(args) => check::run(args),
+        Command::Measure(args) => measure::run(args),
     }
 }

@@ -1,11 +1,14 @@
-//! Rendered scene sets shared by the integration tests and the benchmark: rendered once per
-//! test binary into a temporary folder, with their ground truth.
+//! Rendered scene sets (boards, fish) shared by the integration tests and the benchmarks:
+//! rendered once per test binary into a temporary folder, with their ground truth.
 #![allow(dead_code)]
 
+use calib_targets::fish::{fish_scene_set, render_fish, FishTruth};
 use calib_targets::scene::{laser_scene_set, render, render_slate, slate_scene_set, RenderedScene, SceneSpec, SceneTruth, SlateSpec, SlateTexture, Water};
 use calib_targets::Slate;
+use calib_targets::{camera_yaml, write_fish, write_scene};
+use fslcal::calibration::camera_json;
 use fslcal_core::{CameraModel, LaserLine};
-use calib_targets::{camera_yaml, write_scene};
+use serde_json::json;
 use rayon::prelude::*;
 use std::path::{Path, PathBuf};
 
@@ -93,3 +96,56 @@ pub fn camera_figures(cal: &fslcal::camera_calibration::CameraCalibration) -> St
         cal.coverage.uncovered_frame_corners
     )
 }
+pub struct FishSet {
+    pub dir: PathBuf,
+    pub photos: Vec<PathBuf>,
+    pub truths: Vec<FishTruth>,
+    pub cal: PathBuf,
+    pub dots: PathBuf,
+}
+
+/// `count` fish from 0.6 to 4.5 m rendered into folder `name` (photos, `masks/`, truth),
+/// with a calibration that is the rig's truth (a small covariance, depths 0.5-4.6 m) and
+/// the true dots as a CSV.
+pub fn fish_set(name: &str, count: usize, seed: u64) -> FishSet {
+    {
+        let dir = Path::new(env!("CARGO_TARGET_TMPDIR")).join(name);
+        let _ = std::fs::remove_dir_all(&dir);
+        std::fs::create_dir_all(dir.join("masks")).unwrap();
+        let specs = fish_scene_set(count, seed, Water::Clear, 0.6, 4.5);
+        let truths: Vec<FishTruth> = specs
+            .par_iter()
+            .enumerate()
+            .map(|(i, spec)| {
+                let fish = render_fish(spec);
+                write_fish(&dir, &format!("fish_{i:02}"), &fish).unwrap();
+                // Masks live in their own folder, as a segmenter's output would.
+                std::fs::rename(dir.join(format!("fish_{i:02}_mask.png")), dir.join("masks").join(format!("fish_{i:02}.png"))).unwrap();
+                fish.truth
+            })
+            .collect();
+        let photos: Vec<PathBuf> = (0..truths.len()).map(|i| dir.join(format!("fish_{i:02}.jpg"))).collect();
+        let t = &truths[0];
+        let laser = t.spec.laser.unwrap();
+        let cal = dir.join("cal.json");
+        let cal_json = json!({
+            "camera": camera_json(&t.spec.camera),
+            "laser": {
+                "origin_m": laser.origin_m,
+                "direction": laser.direction,
+                "covariance": [[1e-8, 0.0, 0.0, 0.0], [0.0, 1e-8, 0.0, 0.0], [0.0, 0.0, 1e-9, 0.0], [0.0, 0.0, 0.0, 1e-9]],
+            },
+            "depth_range_m": [0.5, 4.6],
+        });
+        std::fs::write(&cal, serde_json::to_vec_pretty(&cal_json).unwrap()).unwrap();
+        let dots = dir.join("dots.csv");
+        let mut csv = String::from("file,x,y\n");
+        for (p, t) in photos.iter().zip(&truths) {
+            let d = t.dot.as_ref().expect("every fish has the dot on it");
+            csv += &format!("{},{},{}\n", p.file_name().unwrap().to_string_lossy(), d.pixel[0], d.pixel[1]);
+        }
+        std::fs::write(&dots, csv).unwrap();
+        FishSet { dir, photos, truths, cal, dots }
+    }
+}
+

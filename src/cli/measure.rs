@@ -1,0 +1,591 @@
+//! `fslcal measure`: fish lengths from end points, the laser dot and a unit's calibration,
+//! with their 1-sigma, and a dive's length distribution.
+
+use super::pixels::{pixel_arg, read_dots_csv};
+use super::progress;
+use crate::atomic_file::write_atomically;
+use crate::calibration::{self, Calibration};
+use crate::fish::labels::{read_labels, FishLabel};
+use crate::fish::measure::{camera_body_mismatch, distribution, ends_at_edge, measure, Distribution, Length, MeasureParams, Withheld};
+use crate::fish::{fish_ends, FishEnds, HeadCall, Mask};
+use anyhow::{bail, Context};
+use fslcal_core::Vec2;
+use rayon::prelude::*;
+use serde_json::{json, Value};
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+use std::process::ExitCode;
+
+/// Measure fish: length, distance and 1-sigma from the fish's end points, the laser dot and
+/// the unit's calibration; or, with `--labels`/`--masks`, a whole dive with its length
+/// distribution.
+///
+/// One fish: `--cal CAL PHOTO --head X,Y --tail X,Y [--dot X,Y]` (or `--mask MASK` for the
+/// ends). A dive: `--cal CAL (--labels FILE | --masks DIR) PHOTOS...`. End points from a
+/// mask alone: `--mask MASK` without `--cal`. A fish whose number would be wrong is listed
+/// with the reason instead: no dot, dot off the laser line, distance outside the calibrated
+/// range, fish cut by the frame edge, photo from another camera.
+#[derive(clap::Args, Debug)]
+pub struct MeasureArgs {
+    /// The unit's calibration: the JSON `fslcal laser --out` writes, or a signed `.fslcal`.
+    #[arg(long, value_name = "CAL")]
+    cal: Option<PathBuf>,
+
+    /// The snout, pixels (docs/conventions.md: centre of the top-left pixel is 0,0).
+    #[arg(long, value_name = "X,Y", value_parser = pixel_arg, allow_hyphen_values = true)]
+    head: Option<Vec2>,
+
+    /// The fork of the tail, pixels.
+    #[arg(long, value_name = "X,Y", value_parser = pixel_arg, allow_hyphen_values = true)]
+    tail: Option<Vec2>,
+
+    /// The laser dot, pixels, when it is not to be searched for.
+    #[arg(long, value_name = "X,Y", value_parser = pixel_arg, allow_hyphen_values = true)]
+    dot: Option<Vec2>,
+
+    /// One fish's mask (fish pixels non-zero): its snout and fork are found in it.
+    #[arg(long, value_name = "MASK", conflicts_with_all = ["head", "tail", "labels", "masks"])]
+    mask: Option<PathBuf>,
+
+    /// Hand labels for a dive: a CSV `photo,head_x,head_y,tail_x,tail_y[,dot_x,dot_y][,species]`
+    /// (a header row may name the columns in any order) or Label Studio's JSON export with
+    /// keypoints labelled head/snout, tail/fork and optionally dot, species as a choice.
+    #[arg(long, value_name = "FILE", conflicts_with_all = ["head", "tail", "masks"])]
+    labels: Option<PathBuf>,
+
+    /// A folder of fish masks, one per photo: `NAME.png`, `NAME_mask.png` or
+    /// `NAME.mask.png` for photo `NAME.jpg`.
+    #[arg(long, value_name = "DIR", conflicts_with_all = ["head", "tail"])]
+    masks: Option<PathBuf>,
+
+    /// Hand-labelled dots, a CSV of `file,x,y` rows, for photos whose labels carry none.
+    #[arg(long, value_name = "CSV")]
+    dots: Option<PathBuf>,
+
+    /// 1-sigma of a dot's centre in pixels, for the length's 1-sigma and the off-line check.
+    #[arg(long, value_name = "PX", default_value_t = 1.0)]
+    dot_sigma_px: f64,
+
+    /// Write one row per fish here (CSV).
+    #[arg(long, value_name = "FILE")]
+    out: Option<PathBuf>,
+
+    /// Write the length distribution here (CSV: species, statistic, from_m, to_m, value).
+    #[arg(long, value_name = "FILE")]
+    summary_out: Option<PathBuf>,
+
+    /// Print one JSON object instead of the summary.
+    #[arg(long)]
+    json: bool,
+
+    /// Photos (JPEG or PNG).
+    #[arg(value_name = "PHOTOS")]
+    photos: Vec<PathBuf>,
+}
+
+pub fn run(args: MeasureArgs) -> anyhow::Result<ExitCode> {
+    if !(args.dot_sigma_px > 0.0 && args.dot_sigma_px.is_finite()) {
+        bail!("--dot-sigma-px must be a positive number of pixels");
+    }
+    for p in &args.photos {
+        if !p.is_file() {
+            bail!("{}: no such photo", p.display());
+        }
+    }
+    if args.labels.is_some() || args.masks.is_some() {
+        return batch(&args);
+    }
+    match (&args.mask, &args.cal) {
+        (Some(mask), None) => return mask_only(&args, mask),
+        (None, None) => bail!("give --cal CAL to measure (or --mask MASK alone for end points in pixels)"),
+        _ => {}
+    }
+    single(&args)
+}
+
+fn load_cal(args: &MeasureArgs) -> anyhow::Result<Calibration> {
+    let path = args.cal.as_ref().context("--labels and --masks need --cal CAL")?;
+    Ok(calibration::load(path)?)
+}
+
+fn px(p: Vec2) -> Value {
+    json!([p.x, p.y])
+}
+
+fn ends_json(e: &FishEnds) -> Value {
+    json!({
+        "head_px": px(e.head_px),
+        "tail_px": px(e.tail_px),
+        "length_px": e.length_px,
+        "chord_px": e.chord_px,
+        "bent": e.bent,
+        "head_call": e.head_call,
+        "head_known": e.head_call != HeadCall::Unknown,
+        "tail_point": e.tail_point,
+        "cut_by_edge": e.cut_by_edge,
+    })
+}
+
+fn load_ends(mask: &Path) -> anyhow::Result<(Mask, FishEnds)> {
+    let m = Mask::load(mask)?;
+    let ends = fish_ends(&m).with_context(|| mask.display().to_string())?;
+    Ok((m, ends))
+}
+
+fn head_call_text(call: HeadCall) -> &'static str {
+    match call {
+        HeadCall::ForkNotch => "head told by the fork notch at the other end",
+        HeadCall::NarrowPeduncle => "head told by the caudal peduncle and fin at the other end",
+        HeadCall::Labelled => "head as labelled",
+        HeadCall::Unknown => "the mask does not tell head from tail (head and tail may be swapped; the length is the same)",
+    }
+}
+
+/// `--mask M` without a calibration: end points and pixel length only.
+fn mask_only(args: &MeasureArgs, mask: &Path) -> anyhow::Result<ExitCode> {
+    let (_, ends) = load_ends(mask)?;
+    if args.json {
+        println!("{}", serde_json::to_string_pretty(&ends_json(&ends))?);
+    } else {
+        println!(
+            "{}: head ({:.1}, {:.1}) px, tail ({:.1}, {:.1}) px ({}), length {:.1} px{}\n  {}{}",
+            mask.display(),
+            ends.head_px.x,
+            ends.head_px.y,
+            ends.tail_px.x,
+            ends.tail_px.y,
+            match ends.tail_point {
+                crate::fish::TailPoint::Fork { .. } => "fork",
+                crate::fish::TailPoint::Tip => "tail tip, no fork found",
+            },
+            ends.length_px,
+            if ends.bent { " along the bent body" } else { "" },
+            head_call_text(ends.head_call),
+            if ends.cut_by_edge { "\n  warning: the fish touches the frame edge and may be cut" } else { "" },
+        );
+    }
+    Ok(ExitCode::SUCCESS)
+}
+
+/// The laser dot of a fish photo, searched for along the calibrated laser's image (no
+/// target to narrow it down).
+#[cfg(feature = "vision")]
+fn search_dot(cal: &Calibration, photo: &Path) -> Result<Vec2, Withheld> {
+    use crate::dot_on_line::{find_dot_on_laser_line, LineSearch};
+    let no_dot = |why: String| Withheld::NoDot { why };
+    let decoded = crate::vision::EncodedPhoto::read(photo).and_then(|p| p.decode_full()).map_err(|e| no_dot(e.to_string()))?;
+    find_dot_on_laser_line(&decoded.colour(), &cal.camera, &cal.laser, &LineSearch::default())
+        .map(|d| d.pixel)
+        .map_err(|e| no_dot(e.to_string()))
+}
+
+#[cfg(not(feature = "vision"))]
+fn search_dot(_cal: &Calibration, _photo: &Path) -> Result<Vec2, Withheld> {
+    Err(Withheld::NoDot { why: "built without the vision feature, so dots must be given (--dot, --dots or labels)".into() })
+}
+
+/// One fish in one photo.
+fn single(args: &MeasureArgs) -> anyhow::Result<ExitCode> {
+    let cal = load_cal(args)?;
+    let [photo] = args.photos.as_slice() else {
+        bail!("one fish: give exactly one PHOTO (for many, use --labels or --masks)");
+    };
+    let size = image::image_dimensions(photo).with_context(|| format!("{}: cannot read the photo", photo.display()))?;
+    let (head, tail, ratio, ends) = match (&args.mask, args.head, args.tail) {
+        (Some(mask), _, _) => {
+            let (m, ends) = load_ends(mask)?;
+            if (m.width as u32, m.height as u32) != size {
+                bail!("{}: the mask is {}x{} but the photo {} is {}x{}", mask.display(), m.width, m.height, photo.display(), size.0, size.1);
+            }
+            (ends.head_px, ends.tail_px, ends.length_px / ends.chord_px.max(1e-9), Some(ends))
+        }
+        (None, Some(h), Some(t)) => (h, t, 1.0, None),
+        _ => bail!("give --head X,Y and --tail X,Y (or --mask MASK) for the fish"),
+    };
+    let mut flags = Vec::new();
+    flags.extend(camera_body_mismatch(&cal, size));
+    let cut = ends.as_ref().map_or_else(|| ends_at_edge(size, [head, tail], 2.0), |e| e.cut_by_edge);
+    if cut {
+        flags.push(Withheld::CutByEdge);
+    }
+    let dot = match args.dot {
+        Some(d) => Ok(d),
+        None => search_dot(&cal, photo),
+    };
+    let params = MeasureParams { dot_sigma_px: args.dot_sigma_px, ..MeasureParams::default() };
+    let result = dot.clone().and_then(|d| measure(&cal, head, tail, ratio, d, &params));
+    let dot = dot.ok();
+    let length = match (result, flags.is_empty()) {
+        (Ok(l), true) => l,
+        (Err(w), _) => {
+            flags.push(w);
+            bail!("{}: length withheld: {}", photo.display(), flags.iter().map(Withheld::describe).collect::<Vec<_>>().join("; "))
+        }
+        (Ok(_), false) => bail!("{}: length withheld: {}", photo.display(), flags.iter().map(Withheld::describe).collect::<Vec<_>>().join("; ")),
+    };
+    if args.json {
+        let mut v = json!({
+            "photo": photo.display().to_string(),
+            "head_px": px(head),
+            "tail_px": px(tail),
+            "dot_px": dot.map(px),
+            "length_m": length.length_m,
+            "distance_m": length.distance_m,
+            "length_sigma_m": length.length_sigma_m,
+            "distance_sigma_m": length.distance_sigma_m,
+            "distance_sigma_calibration_m": length.distance_sigma_calibration_m,
+            "distance_sigma_dot_m": length.distance_sigma_dot_m,
+            "dot_offset_px": length.dot_offset_px,
+        });
+        if let Some(e) = &ends {
+            v["ends"] = ends_json(e);
+        }
+        println!("{}", serde_json::to_string_pretty(&v)?);
+    } else {
+        println!(
+            "{}: length {:.1} mm ± {:.1} mm (1-sigma), distance {:.3} m ± {:.1} mm (calibration {:.1} mm, dot {:.1} mm); dot {:.2} px from the laser line",
+            photo.display(),
+            length.length_m * 1e3,
+            length.length_sigma_m * 1e3,
+            length.distance_m,
+            length.distance_sigma_m * 1e3,
+            length.distance_sigma_calibration_m * 1e3,
+            length.distance_sigma_dot_m * 1e3,
+            length.dot_offset_px,
+        );
+        if let Some(e) = &ends {
+            println!("  {}", head_call_text(e.head_call));
+        }
+    }
+    Ok(ExitCode::SUCCESS)
+}
+
+/// One fish of a dive, measured or withheld.
+struct FishRow {
+    photo: PathBuf,
+    fish: usize,
+    species: Option<String>,
+    head_px: Option<Vec2>,
+    tail_px: Option<Vec2>,
+    dot_px: Option<Vec2>,
+    head_call: Option<HeadCall>,
+    result: Result<Length, Vec<Withheld>>,
+}
+
+/// Where a dive's end points come from.
+enum Ends<'a> {
+    Labels(&'a [FishLabel]),
+    Masks(&'a Path),
+}
+
+/// The mask for `photo` in `dir`: `NAME.png`, `NAME_mask.png` or `NAME.mask.png`.
+fn mask_for(dir: &Path, photo: &Path) -> Option<PathBuf> {
+    let stem = photo.file_stem()?.to_string_lossy().into_owned();
+    [format!("{stem}.png"), format!("{stem}_mask.png"), format!("{stem}.mask.png")]
+        .into_iter()
+        .map(|n| dir.join(n))
+        .find(|p| p.is_file() && p.canonicalize().ok() != photo.canonicalize().ok())
+}
+
+fn measure_photo(cal: &Calibration, photo: &Path, source: &Ends, dots: &[(String, Vec2)], params: &MeasureParams) -> Vec<FishRow> {
+    let size = image::image_dimensions(photo);
+    let body = match &size {
+        Ok(s) => camera_body_mismatch(cal, *s),
+        Err(e) => Some(Withheld::NoEnds { why: format!("cannot read the photo: {e}") }),
+    };
+    let hand_dot = || {
+        let name = photo.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
+        dots.iter().find(|(f, _)| Path::new(f) == photo || Path::new(f).file_name().is_some_and(|n| n.to_string_lossy() == name)).map(|d| d.1)
+    };
+    let mut fish: Vec<(Option<String>, Result<(Vec2, Vec2, f64, bool, HeadCall), Withheld>, Option<Vec2>)> = Vec::new();
+    match source {
+        Ends::Labels(labels) => {
+            for l in labels.iter().filter(|l| l.names_photo(photo)) {
+                let cut = size.as_ref().is_ok_and(|s| ends_at_edge(*s, [l.head_px, l.tail_px], 2.0));
+                fish.push((l.species.clone(), Ok((l.head_px, l.tail_px, 1.0, cut, HeadCall::Labelled)), l.dot_px));
+            }
+        }
+        Ends::Masks(dir) => {
+            let ends = match mask_for(dir, photo) {
+                None => Err(Withheld::NoEnds { why: format!("no mask for it in {}", dir.display()) }),
+                Some(m) => match Mask::load(&m) {
+                    Err(e) => Err(Withheld::NoEnds { why: e.to_string() }),
+                    Ok(mask) if size.as_ref().is_ok_and(|s| *s != (mask.width as u32, mask.height as u32)) => {
+                        Err(Withheld::NoEnds { why: format!("{}: mask size differs from the photo's", m.display()) })
+                    }
+                    Ok(mask) => fish_ends(&mask)
+                        .map(|e| (e.head_px, e.tail_px, e.length_px / e.chord_px.max(1e-9), e.cut_by_edge, e.head_call))
+                        .map_err(|e| Withheld::NoEnds { why: e.to_string() }),
+                },
+            };
+            fish.push((None, ends, None));
+        }
+    }
+    // One search per photo, however many fish it has.
+    let searched = std::cell::OnceCell::new();
+    fish.into_iter()
+        .enumerate()
+        .map(|(i, (species, ends, label_dot))| {
+            let dot = match label_dot.or_else(hand_dot) {
+                Some(d) => Ok(d),
+                None => searched.get_or_init(|| search_dot(cal, photo)).clone(),
+            };
+            let mut flags: Vec<Withheld> = body.iter().cloned().collect();
+            let mut row = FishRow { photo: photo.to_path_buf(), fish: i + 1, species, head_px: None, tail_px: None, dot_px: dot.clone().ok(), head_call: None, result: Err(vec![]) };
+            let mut length = None;
+            match ends {
+                Err(w) => flags.push(w),
+                Ok((h, t, ratio, cut, call)) => {
+                    (row.head_px, row.tail_px, row.head_call) = (Some(h), Some(t), Some(call));
+                    if cut {
+                        flags.push(Withheld::CutByEdge);
+                    }
+                    match dot.and_then(|d| measure(cal, h, t, ratio, d, params)) {
+                        Err(w) => flags.push(w),
+                        Ok(l) => length = Some(l),
+                    }
+                }
+            }
+            row.result = match length {
+                Some(l) if flags.is_empty() => Ok(l),
+                _ => Err(flags),
+            };
+            row
+        })
+        .collect()
+}
+
+fn batch(args: &MeasureArgs) -> anyhow::Result<ExitCode> {
+    let cal = load_cal(args)?;
+    if args.photos.is_empty() {
+        bail!("give the dive's PHOTOS after the options");
+    }
+    let labels = match &args.labels {
+        Some(path) => read_labels(path)?,
+        None => Vec::new(),
+    };
+    let source = match &args.masks {
+        Some(dir) if !dir.is_dir() => bail!("{}: no such folder of masks", dir.display()),
+        Some(dir) => Ends::Masks(dir),
+        None => Ends::Labels(&labels),
+    };
+    let dots = match &args.dots {
+        Some(csv) => read_dots_csv(csv)?,
+        None => Vec::new(),
+    };
+    let params = MeasureParams { dot_sigma_px: args.dot_sigma_px, ..MeasureParams::default() };
+    let bar = progress::bar(args.photos.len(), "photos", args.json);
+    let per_photo: Vec<Vec<FishRow>> = args
+        .photos
+        .par_iter()
+        .map(|p| {
+            let rows = measure_photo(&cal, p, &source, &dots, &params);
+            bar.inc(1);
+            rows
+        })
+        .collect();
+    bar.finish_and_clear();
+    let unlabelled: Vec<&PathBuf> = args.photos.iter().zip(&per_photo).filter(|(_, r)| r.is_empty()).map(|(p, _)| p).collect();
+    let rows: Vec<FishRow> = per_photo.into_iter().flatten().collect();
+    if rows.is_empty() {
+        bail!("none of the {} photos has a labelled fish: do the label file's photo names match the photos' file names?", args.photos.len());
+    }
+    let summary = Summary::of(&rows);
+    if let Some(out) = &args.out {
+        write_atomically(out, rows_csv(&rows).as_bytes()).with_context(|| format!("{}: cannot write the lengths", out.display()))?;
+    }
+    if let Some(out) = &args.summary_out {
+        write_atomically(out, summary.csv().as_bytes()).with_context(|| format!("{}: cannot write the summary", out.display()))?;
+    }
+    if args.json {
+        let v = json!({
+            "calibration": cal.source.display().to_string(),
+            "fish": rows.iter().map(row_json).collect::<Vec<_>>(),
+            "photos_without_fish": unlabelled.iter().map(|p| p.display().to_string()).collect::<Vec<_>>(),
+            "measured": summary.measured,
+            "total": rows.len(),
+            "withheld": summary.withheld,
+            "summary": summary.json(),
+        });
+        println!("{}", serde_json::to_string_pretty(&v)?);
+    } else {
+        print!("{}", table(&rows));
+        if !unlabelled.is_empty() {
+            println!("{} photo(s) without a labelled fish", unlabelled.len());
+        }
+        print!("{}", summary.text(rows.len()));
+        for (what, out) in [("lengths", &args.out), ("summary", &args.summary_out)] {
+            if let Some(out) = out {
+                println!("wrote {what} to {}", out.display());
+            }
+        }
+    }
+    Ok(ExitCode::SUCCESS)
+}
+
+fn flag_name(w: &Withheld) -> String {
+    serde_json::to_value(w).ok().and_then(|v| v["flag"].as_str().map(String::from)).unwrap_or_default()
+}
+
+fn row_json(r: &FishRow) -> Value {
+    let mut v = json!({
+        "photo": r.photo.display().to_string(),
+        "fish": r.fish,
+        "species": r.species,
+        "head_px": r.head_px.map(px),
+        "tail_px": r.tail_px.map(px),
+        "dot_px": r.dot_px.map(px),
+        "head_call": r.head_call,
+    });
+    match &r.result {
+        Ok(l) => {
+            v["length_m"] = json!(l.length_m);
+            v["distance_m"] = json!(l.distance_m);
+            v["length_sigma_m"] = json!(l.length_sigma_m);
+            v["distance_sigma_m"] = json!(l.distance_sigma_m);
+            v["dot_offset_px"] = json!(l.dot_offset_px);
+            v["flags"] = json!([]);
+        }
+        Err(flags) => {
+            v["length_m"] = Value::Null;
+            v["flags"] = json!(flags);
+        }
+    }
+    v
+}
+
+fn name_of(p: &Path) -> String {
+    p.file_name().map_or_else(|| p.display().to_string(), |n| n.to_string_lossy().into_owned())
+}
+
+fn table(rows: &[FishRow]) -> String {
+    let width = rows.iter().map(|r| name_of(&r.photo).len()).max().unwrap_or(5).max(5);
+    let mut s = format!("  {:width$}  {:>4}  {:12}  {:>20}  {:>15}  {}\n", "photo", "fish", "species", "length mm (1-sigma)", "distance m", "status");
+    for r in rows {
+        let (length, distance, status) = match &r.result {
+            Ok(l) => (
+                format!("{:.1} ± {:.1}", l.length_m * 1e3, l.length_sigma_m * 1e3),
+                format!("{:.3} ± {:.3}", l.distance_m, l.distance_sigma_m),
+                "measured".to_string(),
+            ),
+            Err(flags) => {
+                ("-".into(), "-".into(), format!("withheld: {}", flags.iter().map(Withheld::describe).collect::<Vec<_>>().join("; ")))
+            }
+        };
+        let species = r.species.as_deref().unwrap_or("-");
+        s += &format!("  {:width$}  {:>4}  {species:12}  {length:>20}  {distance:>15}  {status}\n", name_of(&r.photo), r.fish);
+    }
+    s
+}
+
+fn rows_csv(rows: &[FishRow]) -> String {
+    let mut s = String::from("photo,fish,species,head_x,head_y,tail_x,tail_y,dot_x,dot_y,length_m,length_sigma_m,distance_m,distance_sigma_m,flags\n");
+    let xy = |p: Option<Vec2>| p.map_or(",".to_string(), |p| format!("{:.2},{:.2}", p.x, p.y));
+    for r in rows {
+        let (numbers, flags) = match &r.result {
+            Ok(l) => (format!("{:.5},{:.5},{:.4},{:.5}", l.length_m, l.length_sigma_m, l.distance_m, l.distance_sigma_m), String::new()),
+            Err(f) => (",,,".to_string(), f.iter().map(flag_name).collect::<Vec<_>>().join(";")),
+        };
+        s += &format!(
+            "{},{},{},{},{},{},{},{}\n",
+            r.photo.display(),
+            r.fish,
+            r.species.as_deref().unwrap_or(""),
+            xy(r.head_px),
+            xy(r.tail_px),
+            xy(r.dot_px),
+            numbers,
+            flags
+        );
+    }
+    s
+}
+
+/// The dive's length distribution, overall and per species.
+struct Summary {
+    measured: usize,
+    withheld: BTreeMap<String, usize>,
+    all: Option<Distribution>,
+    species: BTreeMap<String, Distribution>,
+}
+
+impl Summary {
+    fn of(rows: &[FishRow]) -> Summary {
+        let mut withheld = BTreeMap::new();
+        let mut by_species: BTreeMap<String, Vec<f64>> = BTreeMap::new();
+        let mut all = Vec::new();
+        for r in rows {
+            match &r.result {
+                Ok(l) => {
+                    all.push(l.length_m);
+                    if let Some(sp) = &r.species {
+                        by_species.entry(sp.clone()).or_default().push(l.length_m);
+                    }
+                }
+                Err(flags) => {
+                    for f in flags {
+                        *withheld.entry(flag_name(f)).or_insert(0) += 1;
+                    }
+                }
+            }
+        }
+        Summary {
+            measured: all.len(),
+            withheld,
+            all: distribution(&all),
+            species: by_species.into_iter().filter_map(|(k, v)| distribution(&v).map(|d| (k, d))).collect(),
+        }
+    }
+
+    fn groups(&self) -> Vec<(&str, &Distribution)> {
+        self.all.iter().map(|d| ("all", d)).chain(self.species.iter().map(|(k, d)| (k.as_str(), d))).collect()
+    }
+
+    fn json(&self) -> Value {
+        let dist = |d: &Distribution| {
+            json!({
+                "n": d.n,
+                "mean_m": d.mean_m,
+                "percentiles_m": d.percentiles_m.iter().map(|(p, v)| (format!("p{p}"), json!(v))).collect::<serde_json::Map<_, _>>(),
+                "bin_width_m": d.bin_width_m,
+                "histogram": d.histogram.iter().map(|(a, b, n)| json!({"from_m": a, "to_m": b, "count": n})).collect::<Vec<_>>(),
+            })
+        };
+        json!({
+            "all": self.all.as_ref().map(dist),
+            "species": self.species.iter().map(|(k, d)| (k.clone(), dist(d))).collect::<serde_json::Map<_, _>>(),
+        })
+    }
+
+    fn csv(&self) -> String {
+        let mut s = String::from("species,statistic,from_m,to_m,value\n");
+        for (group, d) in self.groups() {
+            s += &format!("{group},n,,,{}\n{group},mean_m,,,{:.5}\n", d.n, d.mean_m);
+            for (p, v) in &d.percentiles_m {
+                s += &format!("{group},p{p}_m,,,{v:.5}\n");
+            }
+            for (a, b, n) in &d.histogram {
+                s += &format!("{group},count,{a:.4},{b:.4},{n}\n");
+            }
+        }
+        s
+    }
+
+    fn text(&self, total: usize) -> String {
+        let mut s = format!("\nmeasured {} of {} fish", self.measured, total);
+        if !self.withheld.is_empty() {
+            let w: Vec<String> = self.withheld.iter().map(|(k, n)| format!("{k} {n}")).collect();
+            s += &format!("; withheld: {}", w.join(", "));
+        }
+        s += "\n";
+        for (group, d) in self.groups() {
+            let pct: Vec<String> = d.percentiles_m.iter().map(|(p, v)| format!("p{p} {:.1}", v * 1e3)).collect();
+            s += &format!("\n{group}: n {}, mean {:.1} mm; {} mm\n", d.n, d.mean_m * 1e3, pct.join(", "));
+            let most = d.histogram.iter().map(|h| h.2).max().unwrap_or(1).max(1);
+            for (a, b, n) in &d.histogram {
+                s += &format!("  {:7.1}-{:<7.1} mm {:>5}  {}\n", a * 1e3, b * 1e3, n, "#".repeat((40 * n).div_ceil(most)));
+            }
+        }
+        s
+    }
+}
