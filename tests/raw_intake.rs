@@ -214,14 +214,11 @@ fn laser_fits_from_raws_and_carries_serial_and_depth() {
     assert_eq!(v["photo_exif"][0]["date_time"], "2024:07:14 10:31:07");
 }
 
-#[test]
-fn laser_refuses_another_body_unless_allowed() {
-    let set = raw_laser_set();
-    let other = set.dir.join("other-body");
+/// The set's photos copied into `folder`, as if from body BHR999999: only the serial differs.
+fn other_body_copies(set: &RawLaserSet, folder: &str) -> Vec<String> {
+    let other = set.dir.join(folder);
     std::fs::create_dir_all(&other).unwrap();
-    // The same photos, as if from body BHR999999: only the serial differs.
-    let photos: Vec<String> = set
-        .photos
+    set.photos
         .iter()
         .map(|p| {
             let mut b = std::fs::read(p).unwrap();
@@ -231,7 +228,13 @@ fn laser_refuses_another_body_unless_allowed() {
             std::fs::write(&q, b).unwrap();
             q.display().to_string()
         })
-        .collect();
+        .collect()
+}
+
+#[test]
+fn laser_refuses_another_body_unless_allowed() {
+    let set = raw_laser_set();
+    let photos = other_body_copies(set, "other-body");
     let camera = set.camera_file.to_str().unwrap();
     let o = fslcal(&laser_args(camera, &photos, &["--json"]));
     assert!(!o.status.success());
@@ -306,4 +309,44 @@ fn a_signed_file_from_raws_records_the_body_and_the_depth_gauge() {
     assert!((v["water_depth_m"].as_f64().unwrap() - 6.4).abs() < 1e-3, "{}", v["water_depth_m"]);
     let cal = fslcal::calibration::load(&out).unwrap();
     assert_eq!(cal.camera_serial.as_deref(), Some("BHR201234"));
+}
+
+#[test]
+fn every_command_that_takes_a_calibration_refuses_another_body() {
+    let set = raw_laser_set();
+    let cal = set.dir.join("cal-for-body-check.json");
+    let photos: Vec<String> = set.photos.iter().map(|p| p.display().to_string()).collect();
+    let o = fslcal(&laser_args(set.camera_file.to_str().unwrap(), &photos, &["--out", cal.to_str().unwrap()]));
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let cal = cal.to_str().unwrap();
+    let others = other_body_copies(set, "other-body-cal");
+    let others: Vec<&str> = others.iter().map(String::as_str).collect();
+    let refused = |o: &std::process::Output, what: &str| {
+        assert!(!o.status.success(), "{what} accepted another body's photos");
+        let line = last_stderr_line(o);
+        assert!(line.contains("taken with camera body BHR999999") && line.contains("--allow-other-body"), "{what}: {line}");
+    };
+    let with = |cmd: Vec<&str>, allow: bool| {
+        let mut a = cmd;
+        if allow {
+            a.push("--allow-other-body");
+        }
+        a.extend(others.iter().copied());
+        fslcal(&a)
+    };
+    let validate = vec!["validate", "--cal", cal, "--target", "checkerboard:14x10@42.17mm", "--json"];
+    let check = vec!["check", "--cal", cal, "--json"];
+    refused(&with(validate.clone(), false), "validate");
+    refused(&with(check.clone(), false), "check");
+    // Allowed, they run on (their own verdicts are not what is tested here).
+    for (what, o) in [("validate", with(validate, true)), ("check", with(check, true))] {
+        assert!(!last_stderr_line(&o).contains("taken with camera body"), "{what}");
+        assert!(serde_json::from_slice::<serde_json::Value>(&o.stdout).is_ok(), "{what}: {}", String::from_utf8_lossy(&o.stderr));
+    }
+    // measure withholds the fish's number (in a dive, the rest go on).
+    let one = ["measure", "--cal", cal, "--head", "1800,1400", "--tail", "2200,1450", "--dot", "2000,1500", "--json", others[0]];
+    let o = fslcal(&one);
+    assert!(!o.status.success());
+    let line = last_stderr_line(&o);
+    assert!(line.contains("length withheld") && line.contains("taken with body BHR999999"), "measure: {line}");
 }

@@ -1,5 +1,7 @@
 //! `fslcal check`: has the laser moved since it was calibrated?
 
+use super::body_check::BodyCheckArgs;
+use crate::photo_identity::ExpectedCamera;
 use super::progress;
 use crate::calibration;
 use crate::drift_check::{check, DriftCheck, FLAG_SIGMAS};
@@ -20,6 +22,9 @@ pub struct CheckArgs {
     #[arg(long, value_name = "CAL")]
     cal: PathBuf,
 
+    #[command(flatten)]
+    body: BodyCheckArgs,
+
     /// Print one JSON object instead of the summary.
     #[arg(long)]
     json: bool,
@@ -36,6 +41,7 @@ pub fn run(args: CheckArgs) -> anyhow::Result<ExitCode> {
             bail!("{}: no such photo", p.display());
         }
     }
+    args.body.check(&ExpectedCamera::from(&cal), &args.photos)?;
     let bar = progress::bar(args.photos.len(), "photos", args.json);
     let result = check(&cal, &args.photos, &|| bar.inc(1));
     bar.finish_and_clear();

@@ -11,7 +11,8 @@ use crate::laser_calibration::{calibrate, HandDots, LaserCalibration, LaserError
 use crate::laser_fit::{Gates, Method};
 use anyhow::{bail, Context};
 use crate::calibration::camera_json;
-use crate::photo_identity::{check_photos, photos_exif};
+use super::body_check::BodyCheckArgs;
+use crate::photo_identity::photos_exif;
 use fslcal_core::CameraModel;
 use serde_json::json;
 use std::path::{Path, PathBuf};
@@ -57,10 +58,8 @@ pub struct LaserArgs {
     #[arg(long, value_name = "PX", default_value_t = 4.0)]
     max_dot_offset_px: f64,
 
-    /// Accept photos from another camera body than the camera file's (`camera_serial`);
-    /// without it they are refused.
-    #[arg(long)]
-    allow_other_body: bool,
+    #[command(flatten)]
+    body: BodyCheckArgs,
 
     /// Print one JSON object instead of the summary.
     #[arg(long)]
@@ -122,9 +121,7 @@ pub fn run(args: LaserArgs) -> anyhow::Result<ExitCode> {
             bail!("{}: no such photo", p.display());
         }
     }
-    for w in check_photos(&expected, &args.photos, args.allow_other_body)? {
-        eprintln!("fslcal: warning: {w}");
-    }
+    args.body.check(&expected, &args.photos)?;
     let job = LaserJob {
         camera,
         target: args.target.load().map_err(anyhow::Error::msg)?,

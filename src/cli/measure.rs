@@ -53,6 +53,11 @@ pub struct MeasureArgs {
     #[arg(long, value_name = "FILE", conflicts_with_all = ["head", "tail", "masks"])]
     labels: Option<PathBuf>,
 
+    /// Measure photos from another camera body than the calibration's (EXIF serial); without
+    /// it their fish are withheld.
+    #[arg(long)]
+    allow_other_body: bool,
+
     /// A folder of fish masks, one per photo: `NAME.png`, `NAME_mask.png` or
     /// `NAME.mask.png` for photo `NAME.jpg`.
     #[arg(long, value_name = "DIR", conflicts_with_all = ["head", "tail"])]
@@ -184,13 +189,24 @@ fn search_dot(_cal: &Calibration, _photo: &Path) -> Result<Vec2, Withheld> {
     Err(Withheld::NoDot { why: "built without the vision feature, so dots must be given (--dot, --dots or labels)".into() })
 }
 
+/// A photo's size in pixels: a JPEG's or PNG's from its header, a raw's from its active area.
+fn photo_size(photo: &Path) -> Result<(u32, u32), String> {
+    match image::image_dimensions(photo) {
+        Ok(size) => Ok(size),
+        #[cfg(feature = "vision")]
+        Err(_) => crate::vision::EncodedPhoto::read(photo).and_then(|p| p.dimensions()).map_err(|e| e.to_string()),
+        #[cfg(not(feature = "vision"))]
+        Err(e) => Err(e.to_string()),
+    }
+}
+
 /// One fish in one photo.
 fn single(args: &MeasureArgs) -> anyhow::Result<ExitCode> {
     let cal = load_cal(args)?;
     let [photo] = args.photos.as_slice() else {
         bail!("one fish: give exactly one PHOTO (for many, use --labels or --masks)");
     };
-    let size = image::image_dimensions(photo).with_context(|| format!("{}: cannot read the photo", photo.display()))?;
+    let size = photo_size(photo).map_err(|why| anyhow::anyhow!("{}: cannot read the photo: {why}", photo.display()))?;
     let (head, tail, ratio, ends) = match (&args.mask, args.head, args.tail) {
         (Some(mask), _, _) => {
             let (m, ends) = load_ends(mask)?;
@@ -203,7 +219,7 @@ fn single(args: &MeasureArgs) -> anyhow::Result<ExitCode> {
         _ => bail!("give --head X,Y and --tail X,Y (or --mask MASK) for the fish"),
     };
     let mut flags = Vec::new();
-    flags.extend(camera_body_mismatch(&cal, size));
+    flags.extend(camera_body_mismatch(&cal, photo, size, args.allow_other_body));
     let cut = ends.as_ref().map_or_else(|| ends_at_edge(size, [head, tail], 2.0), |e| e.cut_by_edge);
     if cut {
         flags.push(Withheld::CutByEdge);
@@ -212,7 +228,7 @@ fn single(args: &MeasureArgs) -> anyhow::Result<ExitCode> {
         Some(d) => Ok(d),
         None => search_dot(&cal, photo),
     };
-    let params = MeasureParams { dot_sigma_px: args.dot_sigma_px, ..MeasureParams::default() };
+    let params = MeasureParams { dot_sigma_px: args.dot_sigma_px, allow_other_body: args.allow_other_body, ..MeasureParams::default() };
     let result = dot.clone().and_then(|d| measure(&cal, head, tail, ratio, d, &params));
     let dot = dot.ok();
     let length = match (result, flags.is_empty()) {
@@ -288,9 +304,9 @@ fn mask_for(dir: &Path, photo: &Path) -> Option<PathBuf> {
 }
 
 fn measure_photo(cal: &Calibration, photo: &Path, source: &Ends, dots: &[(String, Vec2)], params: &MeasureParams) -> Vec<FishRow> {
-    let size = image::image_dimensions(photo);
+    let size = photo_size(photo);
     let body = match &size {
-        Ok(s) => camera_body_mismatch(cal, *s),
+        Ok(s) => camera_body_mismatch(cal, photo, *s, params.allow_other_body),
         Err(e) => Some(Withheld::NoEnds { why: format!("cannot read the photo: {e}") }),
     };
     let hand_dot = || {
@@ -373,7 +389,7 @@ fn batch(args: &MeasureArgs) -> anyhow::Result<ExitCode> {
         Some(csv) => read_dots_csv(csv)?,
         None => Vec::new(),
     };
-    let params = MeasureParams { dot_sigma_px: args.dot_sigma_px, ..MeasureParams::default() };
+    let params = MeasureParams { dot_sigma_px: args.dot_sigma_px, allow_other_body: args.allow_other_body, ..MeasureParams::default() };
     let bar = progress::bar(args.photos.len(), "photos", args.json);
     let per_photo: Vec<Vec<FishRow>> = args
         .photos

@@ -7,6 +7,7 @@ mod inspect;
 mod keygen;
 #[cfg(feature = "vision")]
 mod camera;
+mod body_check;
 mod develop;
 #[cfg(feature = "vision")]
 mod check;

@@ -1,5 +1,7 @@
 //! `fslcal validate`: the slate-length check of a calibration.
 
+use super::body_check::BodyCheckArgs;
+use crate::photo_identity::ExpectedCamera;
 use super::progress;
 use crate::calibration;
 use crate::dot::DotDetectorParams;
@@ -38,6 +40,9 @@ pub struct ValidateArgs {
     #[arg(long, value_enum, default_value_t = LengthRule::TiltedPlane)]
     rule: LengthRule,
 
+    #[command(flatten)]
+    body: BodyCheckArgs,
+
     /// Print one JSON object instead of the summary.
     #[arg(long)]
     json: bool,
@@ -57,6 +62,7 @@ pub fn run(args: ValidateArgs) -> anyhow::Result<ExitCode> {
             bail!("{}: no such photo", p.display());
         }
     }
+    args.body.check(&ExpectedCamera::from(&cal), &args.photos)?;
     let target = args.target.load().map_err(anyhow::Error::msg)?;
     let job = ValidationJob {
         cal,

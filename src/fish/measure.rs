@@ -1,9 +1,12 @@
 //! A fish's length from its end points, the laser dot and a calibration, with its 1-sigma,
 //! and the reasons to withhold a number rather than print a wrong one.
 
+use crate::exif::PhotoExif;
+use crate::photo_identity::{check_photo, ExpectedCamera};
 use crate::calibration::Calibration;
 use fslcal_core::{CameraModel, Vec2};
 use serde::Serialize;
+use std::path::Path;
 
 /// Why a fish's length is not given.
 #[derive(Clone, Debug, PartialEq, Serialize)]
@@ -53,11 +56,13 @@ pub struct MeasureParams {
     pub dot_sigma_px: f64,
     /// A dot farther than this many sigmas from the laser's image is off the line.
     pub max_dot_offset_sigma: f64,
+    /// Measure photos from another camera body than the calibration's.
+    pub allow_other_body: bool,
 }
 
 impl Default for MeasureParams {
     fn default() -> Self {
-        MeasureParams { dot_sigma_px: 1.0, max_dot_offset_sigma: 3.0 }
+        MeasureParams { dot_sigma_px: 1.0, max_dot_offset_sigma: 3.0, allow_other_body: false }
     }
 }
 
@@ -161,14 +166,22 @@ pub fn measure(
     })
 }
 
-/// Whether a photo of `size` can come from the calibrated camera. The EXIF body serial
-/// check (the `raw` branch's reader) plugs in here: when the calibration records
-/// `camera_serial` and the photo's EXIF names another body, withhold.
-pub fn camera_body_mismatch(cal: &Calibration, size: (u32, u32)) -> Option<Withheld> {
+/// Whether the photo at `photo`, of `size`, can come from the calibrated camera: the same
+/// image size, and (where both record one) the same body serial in its EXIF, unless
+/// `allow_other_body`.
+pub fn camera_body_mismatch(cal: &Calibration, photo: &Path, size: (u32, u32), allow_other_body: bool) -> Option<Withheld> {
     let want = (cal.camera.width_px, cal.camera.height_px);
-    (size != want).then(|| Withheld::OtherCameraBody {
-        why: format!("photo is {}x{}, the calibration is for {}x{}", size.0, size.1, want.0, want.1),
-    })
+    if size != want {
+        return Some(Withheld::OtherCameraBody {
+            why: format!("photo is {}x{}, the calibration is for {}x{}", size.0, size.1, want.0, want.1),
+        });
+    }
+    let expected = ExpectedCamera::from(cal);
+    expected.serial.as_ref()?;
+    let exif = PhotoExif::read_file(photo);
+    check_photo(&expected, photo, exif.as_ref(), allow_other_body)
+        .err()
+        .map(|refusal| Withheld::OtherCameraBody { why: format!("taken with body {}, the calibration is for body {}", refusal.photo_serial, refusal.expected_serial) })
 }
 
 /// Whether labelled end points lie within `margin_px` of the frame: the fish may run out of it.
