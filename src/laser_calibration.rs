@@ -11,7 +11,7 @@ use crate::dot::{find_dot_candidates, ChannelOrder, ColourView, DotCandidate, Do
 use crate::laser_fit::{self, DotObservation, FitError, Gates, LaserFit, Method};
 use crate::vision::{self, EncodedPhoto, Photo, TargetPose};
 use calib_targets::Checkerboard;
-use fslcal_core::{CameraModel, LaserLine, Vec2, Vec3};
+use fslcal_core::{CameraModel, LaserLine, Plane, Vec2, Vec3};
 use rayon::prelude::*;
 use serde::Serialize;
 use std::collections::HashMap;
@@ -38,6 +38,8 @@ pub struct PhotoEvidence {
     pub pose: TargetPose,
     /// The physical board's outline in the image (padded), pixels.
     pub board_outline_px: Vec<Vec2>,
+    /// The board's inner corners as refined, row by row, pixels.
+    pub corners_px: Vec<Vec2>,
     /// Dot candidates on the board, best first.
     pub candidates: Vec<DotCandidate>,
     pub dot_source: DotSource,
@@ -93,6 +95,28 @@ impl PixelCrop {
 /// Outcome of the per-photo stage: evidence, or the reason the photo cannot be used.
 pub type PhotoResult = Result<PhotoEvidence, String>;
 
+/// Where a photo's board was seen: what the HTML report draws on the thumbnail.
+#[derive(Clone, Debug)]
+pub struct BoardInImage {
+    /// Inner corners as refined, row by row (OpenCV's order), pixels.
+    pub corners_px: Vec<Vec2>,
+    /// Inner corners per row.
+    pub inner_cols: usize,
+    /// The board's plane from its pose, camera frame.
+    pub plane: Plane,
+}
+
+impl BoardInImage {
+    /// The four outermost inner corners, in order around the grid.
+    pub fn grid_outline_px(&self) -> Vec<Vec2> {
+        let (c, n) = (self.inner_cols, self.corners_px.len());
+        if c == 0 || n < c {
+            return Vec::new();
+        }
+        vec![self.corners_px[0], self.corners_px[c - 1], self.corners_px[n - 1], self.corners_px[n - c]]
+    }
+}
+
 /// Per-photo line of the report.
 #[derive(Clone, Debug, Serialize)]
 pub struct PhotoReport {
@@ -108,6 +132,9 @@ pub struct PhotoReport {
     pub residual_px: Option<f64>,
     /// RMS reprojection error of the board's corners for this photo's pose, pixels.
     pub board_rms_px: Option<f64>,
+    /// The board as detected, when it was; kept for the HTML report, not the JSON.
+    #[serde(skip)]
+    pub board: Option<BoardInImage>,
 }
 
 /// One gate a careful lab applies, with its figure.
@@ -273,6 +300,7 @@ pub fn examine_photo(job: &LaserJob, path: &Path) -> Result<PhotoResult, LaserEr
         image_size: (w, h),
         pose,
         board_outline_px: outline,
+        corners_px: corners,
         candidates,
         dot_source,
         found_at_factor: search.found_at_factor,
@@ -404,11 +432,11 @@ pub fn calibrate(job: &LaserJob, photos: &[PathBuf], progress: &(dyn Fn() + Sync
     let fit = match fit {
         Ok(f) => f,
         Err(source) => {
-            let photos = report_photos(photos, &results, None);
+            let photos = report_photos(job, photos, &results, None);
             return Err(LaserError::Fit { source, photos });
         }
     };
-    let photo_reports = report_photos(photos, &results, Some(&fit));
+    let photo_reports = report_photos(job, photos, &results, Some(&fit));
     let present = fit.photos.iter().flatten().count();
     let outliers = (present - fit.used, present);
     let gates = gate(job, &fit, outliers);
@@ -453,7 +481,7 @@ fn gate(job: &LaserJob, fit: &LaserFit, outliers: (usize, usize)) -> Vec<GateRes
     ]
 }
 
-fn report_photos(paths: &[PathBuf], results: &[PhotoResult], fit: Option<&LaserFit>) -> Vec<PhotoReport> {
+fn report_photos(job: &LaserJob, paths: &[PathBuf], results: &[PhotoResult], fit: Option<&LaserFit>) -> Vec<PhotoReport> {
     paths
         .iter()
         .zip(results)
@@ -469,6 +497,7 @@ fn report_photos(paths: &[PathBuf], results: &[PhotoResult], fit: Option<&LaserF
                 distance_m: None,
                 residual_px: None,
                 board_rms_px: None,
+                board: None,
             };
             let e = match r {
                 Err(reason) => return skipped(reason.clone()),
@@ -476,6 +505,11 @@ fn report_photos(paths: &[PathBuf], results: &[PhotoResult], fit: Option<&LaserF
             };
             let mut rep = skipped(String::new());
             rep.board_rms_px = Some(e.pose.rms_px);
+            rep.board = Some(BoardInImage {
+                corners_px: e.corners_px.clone(),
+                inner_cols: job.board.inner_cols as usize,
+                plane: e.pose.plane(),
+            });
             let Some(pf) = fit.and_then(|f| f.photos[i].as_ref()) else {
                 rep.reason = Some(match (e.candidates.is_empty(), fit) {
                     (true, _) => "no laser dot found on the board".to_string(),

@@ -12,6 +12,7 @@ pub mod dot;
 #[cfg(feature = "vision")]
 pub mod laser_calibration;
 pub mod laser_fit;
+pub mod report;
 #[cfg(feature = "vision")]
 pub mod vision;
 

@@ -6,6 +6,7 @@ use crate::camera_file;
 use crate::dot::DotDetectorParams;
 use crate::laser_calibration::{calibrate, HandDots, LaserCalibration, LaserError, LaserJob, PhotoReport};
 use crate::laser_fit::{Gates, Method};
+use crate::report::{self, laser::{LaserOutcome, LaserReport}};
 use anyhow::{bail, Context};
 use calib_targets::Checkerboard;
 use crate::calibration::camera_json;
@@ -60,6 +61,12 @@ pub struct LaserArgs {
     /// Write the result (JSON) here; only when every gate passes.
     #[arg(long, value_name = "FILE")]
     out: Option<PathBuf>,
+
+    /// Write an HTML report into this folder (created if missing): `index.html` with the
+    /// plots and a thumbnail of every photo, opened offline in any browser. Written also
+    /// when a gate fails or the fit is refused, since that is when it is needed.
+    #[arg(long, value_name = "DIR")]
+    report: Option<PathBuf>,
 
     /// Calibration photos (JPEG or PNG).
     #[arg(required = true, value_name = "PHOTOS")]
@@ -139,6 +146,8 @@ pub fn run(args: LaserArgs) -> anyhow::Result<ExitCode> {
             if !args.json {
                 eprint!("{}", photo_table(&photos));
             }
+            let outcome = LaserOutcome::Refused { reason: source.to_string(), photos: &photos };
+            write_report(&args, &job, outcome)?;
             bail!("cannot fit the laser: {source}");
         }
         Err(e) => return Err(e.into()),
@@ -149,6 +158,7 @@ pub fn run(args: LaserArgs) -> anyhow::Result<ExitCode> {
     } else {
         print!("{}", summary(&args, &cal));
     }
+    write_report(&args, &job, LaserOutcome::Fitted(&cal))?;
     if !cal.accepted() {
         let failed: Vec<String> =
             cal.gates.iter().filter(|g| !g.pass).map(|g| format!("{} {} (limit {})", g.name, g.figure, g.limit)).collect();
@@ -164,6 +174,17 @@ pub fn run(args: LaserArgs) -> anyhow::Result<ExitCode> {
         }
     }
     Ok(ExitCode::SUCCESS)
+}
+
+fn write_report(args: &LaserArgs, job: &LaserJob, outcome: LaserOutcome) -> anyhow::Result<()> {
+    let Some(dir) = &args.report else { return Ok(()) };
+    let report = LaserReport { job, camera_file: &args.camera, outcome };
+    let index = report::laser::write(dir, &report).with_context(|| format!("{}: cannot write the report", dir.display()))?;
+    if !args.json {
+        // On stderr: a refused fit's summary went there too, and stdout may be piped.
+        eprintln!("report: {}", index.display());
+    }
+    Ok(())
 }
 
 fn json_report(args: &LaserArgs, camera: &CameraModel, cal: &LaserCalibration) -> serde_json::Value {
