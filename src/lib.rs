@@ -6,6 +6,9 @@
 
 pub mod atomic_file;
 pub mod calibration;
+#[cfg(feature = "vision")]
+pub mod camera_calibration;
+pub mod camera_fit;
 pub mod camera_file;
 pub mod cli;
 pub mod dot;

@@ -2,6 +2,8 @@
 //! are the help text) and a `run()`.
 
 #[cfg(feature = "vision")]
+mod camera;
+#[cfg(feature = "vision")]
 mod laser;
 mod progress;
 
@@ -20,6 +22,8 @@ pub struct Cli {
 #[derive(Subcommand, Debug)]
 enum Command {
     #[cfg(feature = "vision")]
+    Camera(camera::CameraArgs),
+    #[cfg(feature = "vision")]
     Laser(laser::LaserArgs),
 }
 
@@ -27,6 +31,8 @@ enum Command {
 pub fn run() -> anyhow::Result<ExitCode> {
     let cli = Cli::parse();
     match cli.command {
+        #[cfg(feature = "vision")]
+        Command::Camera(args) => camera::run(args),
         #[cfg(feature = "vision")]
         Command::Laser(args) => laser::run(args),
     }

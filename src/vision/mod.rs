@@ -2,9 +2,11 @@
 //! corners, and solving a target's pose. Nothing outside this module names `opencv`.
 
 mod board;
+mod intrinsics;
 mod pose;
 
 pub use board::{find_checkerboard, local_square_px, refine_corners, BoardSearch};
+pub use intrinsics::{calibrate_intrinsics, IntrinsicsSolve, SolveOptions};
 pub use pose::{solve_pose, TargetPose};
 
 use crate::dot::{ChannelOrder, ColourView};

@@ -53,3 +53,21 @@ pub fn no_board_spec(seed: u64) -> SceneSpec {
     spec.board = None;
     spec
 }
+
+/// The figures a camera test prints for the closing note: photos, residuals, outliers,
+/// coverage.
+pub fn camera_figures(cal: &fslcal::camera_calibration::CameraCalibration) -> String {
+    format!(
+        "{} of {} photos used, RMS {:.3} px per point, worst {:.3} px, outlier corners {} of {}, outlier photos {} of {}, coverage {:.0}% (uncovered frame corners {:?})",
+        cal.used_photos(),
+        cal.photos.len(),
+        cal.rms_px,
+        cal.worst_px,
+        cal.corner_outliers.0,
+        cal.corner_outliers.1,
+        cal.photo_outliers.0,
+        cal.photo_outliers.1,
+        100.0 * cal.coverage.share,
+        cal.coverage.uncovered_frame_corners
+    )
+}

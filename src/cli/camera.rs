@@ -1,0 +1,175 @@
+//! `fslcal camera`: the intrinsics a diver calibrates once per unit, under water.
+
+use super::progress;
+use crate::atomic_file::write_atomically;
+use crate::calibration::camera_json;
+use crate::camera_calibration::{calibrate, CameraCalibration, CameraJob};
+use crate::camera_file::{self, CameraFileExtras};
+use crate::camera_fit::FRAME_CORNER_SHARE;
+use anyhow::{bail, Context};
+use calib_targets::Checkerboard;
+use serde_json::json;
+use std::path::{Path, PathBuf};
+use std::process::ExitCode;
+
+/// How the standard deviations are meant, for the summary and the JSON.
+const SIGMA_CONVENTION: &str = "1-sigma: sqrt(diag((JtJ)^-1) * s2) with s2 the noise variance per residual coordinate (sum of squares / (2N - P)); OpenCV 4.6's stdDeviationsIntrinsics divide by N - P (N points) and are larger by sqrt((2N - P)/(N - P)), about 1.41";
+
+/// Calibrate the camera's intrinsics from photos of a checkerboard.
+///
+/// Take 10-20 photos under water, the whole board in the frame, at different distances and
+/// tilts, and put the board into every part of the frame, corners included: distortion is
+/// only known where corners were seen. Photos without the board are listed and skipped.
+#[derive(clap::Args, Debug)]
+pub struct CameraArgs {
+    /// The board: `COLSxROWS@SQUAREmm` with inner corners (where four squares meet), e.g.
+    /// `14x10@42.17mm`. The square size only scales the poses, not the intrinsics.
+    #[arg(long, value_name = "COLSxROWS@SQUAREmm", value_parser = parse_board)]
+    board: Checkerboard,
+
+    /// Print one JSON object instead of the summary.
+    #[arg(long)]
+    json: bool,
+
+    /// Write the camera here as OpenCV FileStorage YAML (what `fslcal laser --camera` and
+    /// OpenCV read).
+    #[arg(long, value_name = "CAMERA")]
+    out: Option<PathBuf>,
+
+    /// Calibration photos (JPEG or PNG), all from the same camera mode.
+    #[arg(required = true, value_name = "PHOTOS")]
+    photos: Vec<PathBuf>,
+}
+
+fn parse_board(s: &str) -> Result<Checkerboard, String> {
+    s.parse::<Checkerboard>().map_err(|e| e.to_string())
+}
+
+pub fn run(args: CameraArgs) -> anyhow::Result<ExitCode> {
+    for p in &args.photos {
+        if !p.is_file() {
+            bail!("{}: no such photo", p.display());
+        }
+    }
+    let job = CameraJob::new(args.board);
+    let bar = progress::bar(args.photos.len(), "photos", args.json);
+    let result = calibrate(&job, &args.photos, &|| bar.inc(1));
+    bar.finish_and_clear();
+    let cal = result.context("cannot calibrate the camera")?;
+    if args.json {
+        println!("{}", serde_json::to_string_pretty(&json_report(&args, &cal))?);
+    } else {
+        print!("{}", summary(&args, &cal));
+    }
+    if let Some(out) = &args.out {
+        let yaml = camera_file::to_yaml(&cal.camera, &CameraFileExtras { avg_reprojection_error: Some(cal.rms_px) });
+        write_atomically(out, yaml.as_bytes()).with_context(|| format!("{}: cannot write the camera file", out.display()))?;
+        if !args.json {
+            println!("wrote {}", out.display());
+        }
+    }
+    Ok(ExitCode::SUCCESS)
+}
+
+fn x_of_n((x, n): (usize, usize)) -> String {
+    format!("{x} of {n}")
+}
+
+fn json_report(args: &CameraArgs, cal: &CameraCalibration) -> serde_json::Value {
+    let s = &cal.sigma;
+    json!({
+        "board": args.board.to_string(),
+        "camera": camera_json(&cal.camera),
+        "rms_px": cal.rms_px,
+        "worst_px": cal.worst_px,
+        "worst_file": cal.photos[cal.worst_photo].file,
+        "sigma": {
+            "fx": s[0], "fy": s[1], "cx": s[2], "cy": s[3],
+            "k1": s[4], "k2": s[5], "p1": s[6], "p2": s[7], "k3": s[8],
+        },
+        "sigma_convention": SIGMA_CONVENTION,
+        "opencv_std_deviations_intrinsics": cal.opencv_std_dev,
+        "points": cal.points,
+        "free_parameters": cal.free_parameters,
+        "outliers": {
+            "corners": x_of_n(cal.corner_outliers),
+            "photos": x_of_n(cal.photo_outliers),
+            "corner_k_sigma": cal.k_corner,
+        },
+        "coverage": {
+            "share": cal.coverage.share,
+            "uncovered_frame_corners": cal.coverage.uncovered_frame_corners,
+        },
+        "solves": cal.solves,
+        "photos": cal.photos,
+    })
+}
+
+fn name_of(file: &str) -> String {
+    Path::new(file).file_name().map_or_else(|| file.to_string(), |n| n.to_string_lossy().into_owned())
+}
+
+fn summary(args: &CameraArgs, cal: &CameraCalibration) -> String {
+    let c = &cal.camera;
+    let s = &cal.sigma;
+    let d = c.distortion;
+    let mut out = format!(
+        "fslcal camera: {} photos, board {}, {}x{} px\n\n",
+        cal.photos.len(),
+        args.board,
+        c.width_px,
+        c.height_px
+    );
+    let width = cal.photos.iter().map(|p| name_of(&p.file).len()).max().unwrap_or(4).max(4);
+    out += &format!("  {:width$}  {:>7}  {:>7}  {:>8}  {}\n", "file", "corners", "rms px", "worst px", "status");
+    for p in &cal.photos {
+        let corners = match (p.corners_used, p.corners_found) {
+            (Some(u), Some(f)) => format!("{u}/{f}"),
+            _ => "-".into(),
+        };
+        let rms = p.rms_px.map_or("-".into(), |r| format!("{r:.3}"));
+        let worst = p.worst_px.map_or("-".into(), |r| format!("{r:.2}"));
+        let status = match p.status {
+            "rejected" => "rejected: an outlier photo (its corners disagree with the rest)",
+            other => other,
+        };
+        out += &format!("  {:width$}  {corners:>7}  {rms:>7}  {worst:>8}  {status}\n", name_of(&p.file));
+    }
+    let no_board = cal.photos.iter().filter(|p| p.status == "no board").count();
+    out += &format!(
+        "\nphotos: {} used, {} rejected, {no_board} without the board; outlier photos {}\n",
+        cal.used_photos(),
+        cal.photo_outliers.0,
+        x_of_n(cal.photo_outliers)
+    );
+    out += &format!(
+        "residuals: RMS {:.3} px per point over {} corners, worst {:.2} px in {}; outlier corners {} (beyond {} robust sigmas of their photo's corners)\n",
+        cal.rms_px,
+        cal.points,
+        cal.worst_px,
+        name_of(&cal.photos[cal.worst_photo].file),
+        x_of_n(cal.corner_outliers),
+        cal.k_corner
+    );
+    out += &format!("fx {:9.2} ± {:.2} px   fy {:9.2} ± {:.2} px\n", c.fx_px, s[0], c.fy_px, s[1]);
+    out += &format!("cx {:9.2} ± {:.2} px   cy {:9.2} ± {:.2} px\n", c.cx_px, s[2], c.cy_px, s[3]);
+    out += &format!(
+        "k1 {:+.5} ± {:.5}   k2 {:+.5} ± {:.5}   k3 {:+.5} ± {:.5}   p1 {:+.6} ± {:.6}   p2 {:+.6} ± {:.6}\n",
+        d.k1, s[4], d.k2, s[5], d.k3, s[8], d.p1, s[6], d.p2, s[7]
+    );
+    out += &format!(
+        "  (± is 1-sigma from the fit's covariance with the noise estimated per coordinate; OpenCV 4.6's own figures are {:.2}x larger)\n",
+        if s[0] > 0.0 { cal.opencv_std_dev[0] / s[0] } else { f64::NAN }
+    );
+    out += &format!("coverage: the boards span {:.0}% of the image", 100.0 * cal.coverage.share);
+    if cal.coverage.uncovered_frame_corners.is_empty() {
+        out += "; every corner of the frame has board corners\n";
+    } else {
+        out += &format!(
+            "\nwarning: no board corner within {:.0}% of the frame's {} corner(s): the distortion there is extrapolated; add photos with the board in those corners\n",
+            100.0 * FRAME_CORNER_SHARE,
+            cal.coverage.uncovered_frame_corners.join(", ")
+        );
+    }
+    out
+}
