@@ -1,7 +1,8 @@
-//! The HTML report in a real browser (Debian's chromium, headless): `fslcal laser --report`
-//! on rendered photos, then the page loaded with no failed requests and no console
-//! messages, every image decoded (naturalWidth > 0), nothing fetched from outside the
-//! report's folder, and a screenshot taken.
+//! The HTML reports in a real browser (Debian's chromium, headless): `fslcal laser --report`
+//! on rendered photos and `fslcal camera --report` on OpenCV's sample photos, then each page
+//! loaded with no failed requests and no console messages, every image decoded
+//! (naturalWidth > 0), nothing fetched from outside the report's folder, and a screenshot
+//! taken.
 //!
 //! chromium is installed by `.ci/setup`; without it this test fails (it does not skip), so
 //! CI cannot pass with the report untested. `FSLCAL_CHROMIUM` names another binary.
@@ -155,14 +156,9 @@ fn laser_report_loads_in_chromium_with_every_image_and_no_errors() {
     assert!(html.contains("skipped: no 14x10 checkerboard found"), "reason beside the skipped photo");
     assert_eq!(html.matches("<img src=\"plots/").count(), 5);
     assert_eq!(html.matches("<img src=\"thumbs/").count(), 6);
-    for banned in ["<script", "<link", "@import", "url(", "http://", "https://"] {
-        assert!(!html.contains(banned), "the page must load nothing else: found `{banned}`");
-    }
 
     let profile = tempfile::tempdir().unwrap();
-    let check = check_page(&report, profile.path());
-    assert!(check.problems.is_empty(), "the report does not load cleanly:\n{}", check.problems.join("\n"));
-    assert_eq!(check.images, 11, "every plot and thumbnail reached the browser");
+    assert_loads_cleanly(&report, profile.path(), 11);
 
     // The check can fail: the same page with a plot and a thumbnail removed.
     let broken = set.path().join("report-broken");
@@ -208,6 +204,44 @@ fn laser_report_loads_in_chromium_with_every_image_and_no_errors() {
     assert!(has([0xe3, 0xf4, 0xe3]), "verdict banner drawn");
     assert!(has([31, 119, 180]), "plot markers drawn");
     eprintln!("screenshot: {}", shot.display());
+}
+
+/// The page loads with nothing failed or logged, and all `images` images are shown.
+fn assert_loads_cleanly(report: &Path, profile: &Path, images: usize) {
+    let html = std::fs::read_to_string(report.join("index.html")).unwrap();
+    for banned in ["<script", "<link", "@import", "url(", "http://", "https://"] {
+        assert!(!html.contains(banned), "the page must load nothing else: found `{banned}`");
+    }
+    let check = check_page(report, profile);
+    assert!(check.problems.is_empty(), "the report does not load cleanly:\n{}", check.problems.join("\n"));
+    assert_eq!(check.images, images, "every plot and thumbnail reached the browser");
+}
+
+#[test]
+fn camera_report_of_opencvs_sample_photos_loads_in_chromium() {
+    let photos: Vec<PathBuf> = (1..=14)
+        .filter(|i| *i != 10)
+        .map(|i| Path::new(env!("CARGO_MANIFEST_DIR")).join(format!("tests/data/opencv-samples/left{i:02}.jpg")))
+        .collect();
+    let dir = tempfile::tempdir().unwrap();
+    let report = dir.path().join("camera-report");
+    let o = Command::new(env!("CARGO_BIN_EXE_fslcal"))
+        .args(["camera", "--board", "9x6@25mm", "--report"])
+        .arg(&report)
+        .args(&photos)
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let html = std::fs::read_to_string(report.join("index.html")).unwrap();
+    // The figures of this set (see tests/camera_real.rs): fx near 533 px, 13 photos used,
+    // and the frame's corners never reached by the board.
+    assert!(html.contains("13 photos (13 used, 0 rejected, 0 without the board)"), "{html}");
+    assert!(html.contains("fx, fy</td><td class=\"\">533."), "fx in the key figures");
+    assert!(html.contains("verdict warning") && html.contains("top-left"), "uncovered frame corners are a warning");
+    assert_eq!(html.matches("<img src=\"plots/").count(), 3);
+    assert_eq!(html.matches("<img src=\"thumbs/").count(), 13);
+    let profile = tempfile::tempdir().unwrap();
+    assert_loads_cleanly(&report, profile.path(), 16);
 }
 
 fn copy_dir(from: &Path, to: &Path) {

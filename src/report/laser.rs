@@ -6,18 +6,13 @@
 //! Written also when gates fail or the fit is refused: that is when people need it.
 
 use super::plot::{colour, Chart, Layer, Marker};
-use super::thumbnail::{self, Overlay};
-use super::{safe_file_name, Cell, Page, ReportError, ReportFiles, Verdict};
+use super::thumbnail::Overlay;
+use super::{file_name, thumbnail_cells, Cell, Page, ReportError, ReportFiles, Verdict};
 use crate::laser_calibration::{LaserCalibration, LaserJob, PhotoReport};
 use crate::laser_fit::distance_sigma;
 use fslcal_core::{CameraModel, LaserLine, Vec2, Vec3};
 use nalgebra::Matrix4;
-use rayon::prelude::*;
 use std::path::{Path, PathBuf};
-
-/// Thumbnail width, pixels: enough to see the dot's ring against the board, small enough
-/// for a 20-photo report to stay well under a megabyte.
-pub const THUMBNAIL_WIDTH_PX: u32 = 320;
 
 /// What the run produced.
 pub enum LaserOutcome<'a> {
@@ -203,10 +198,6 @@ fn overlay(report: &PhotoReport, camera: &CameraModel, laser: Option<&LaserLine>
     o
 }
 
-fn file_name(file: &str) -> String {
-    Path::new(file).file_name().map_or_else(|| file.to_string(), |n| n.to_string_lossy().into_owned())
-}
-
 fn mm(v: f64) -> String {
     format!("{:.2} mm", v * 1e3)
 }
@@ -359,22 +350,10 @@ fn photo_section(page: &mut Page, files: &mut ReportFiles, photos: &[PhotoReport
         "Drawn on each photo: the detected board's inner-corner grid (yellow) and corners (cyan), the dot used \
          (red ring), the fitted laser line's image (magenta) and where it meets this photo's board (white cross).",
     );
-    let thumbs: Vec<Result<thumbnail::Thumbnail, String>> = photos
-        .par_iter()
-        .map(|p| thumbnail::draw(Path::new(&p.file), THUMBNAIL_WIDTH_PX, &overlay(p, camera, laser)).map_err(|e| e.to_string()))
-        .collect();
+    let overlays: Vec<(&str, Overlay)> = photos.iter().map(|p| (p.file.as_str(), overlay(p, camera, laser))).collect();
     let mut rows = Vec::new();
-    for (i, (p, thumb)) in photos.iter().zip(thumbs).enumerate() {
+    for (p, image) in photos.iter().zip(thumbnail_cells(files, &overlays)) {
         let name = file_name(&p.file);
-        let image = match thumb {
-            Ok(t) => {
-                let stem = Path::new(&name).file_stem().map_or_else(|| name.clone(), |s| s.to_string_lossy().into_owned());
-                let src = format!("thumbs/{i:02}-{}.jpg", safe_file_name(&stem));
-                files.add(src.clone(), t.jpeg);
-                Cell::Image { src, alt: name.clone(), width_px: t.width_px, height_px: t.height_px }
-            }
-            Err(e) => Cell::Bad(format!("no thumbnail: {e}")),
-        };
         let status = match (&p.reason, p.status) {
             (Some(r), s) => Cell::Bad(format!("{s}: {r}")),
             (None, s) => Cell::Good(match p.dot_source.and_then(|d| serde_json::to_value(d).ok()) {

@@ -8,6 +8,8 @@
 //! (`report::laser::write(dir, ...)`), so adding one is a page builder and a `--report` flag.
 
 #[cfg(feature = "vision")]
+pub mod camera;
+#[cfg(feature = "vision")]
 pub mod laser;
 pub mod plot;
 pub mod thumbnail;
@@ -45,10 +47,45 @@ pub fn safe_file_name(name: &str) -> String {
     name.chars().map(|c| if c.is_ascii_alphanumeric() || matches!(c, '-' | '_' | '.') { c } else { '_' }).collect()
 }
 
+/// A photo's file name without its folders, as tables show it.
+pub fn file_name(path: &str) -> String {
+    Path::new(path).file_name().map_or_else(|| path.to_string(), |n| n.to_string_lossy().into_owned())
+}
+
+/// Thumbnail width, pixels: enough to see a dot's ring against the board, small enough for
+/// a 20-photo report to stay well under a megabyte.
+pub const THUMBNAIL_WIDTH_PX: u32 = 320;
+
+/// Draws each photo's thumbnail (in parallel) with its overlay, adds the JPEGs to `files`
+/// as `thumbs/NN-name.jpg`, and returns one table cell per photo: the image, or why there
+/// is none (an unreadable photo still gets its row).
+pub fn thumbnail_cells(files: &mut ReportFiles, photos: &[(&str, thumbnail::Overlay)]) -> Vec<Cell> {
+    use rayon::prelude::*;
+    let drawn: Vec<Result<thumbnail::Thumbnail, thumbnail::ThumbnailError>> =
+        photos.par_iter().map(|(path, overlay)| thumbnail::draw(Path::new(path), THUMBNAIL_WIDTH_PX, overlay)).collect();
+    photos
+        .iter()
+        .zip(drawn)
+        .enumerate()
+        .map(|(i, ((path, _), t))| match t {
+            Ok(t) => {
+                let name = file_name(path);
+                let stem = Path::new(&name).file_stem().map_or_else(|| name.clone(), |s| s.to_string_lossy().into_owned());
+                let src = format!("thumbs/{i:02}-{}.jpg", safe_file_name(&stem));
+                files.add(src.clone(), t.jpeg);
+                Cell::Image { src, alt: name, width_px: t.width_px, height_px: t.height_px }
+            }
+            Err(e) => Cell::Bad(format!("no thumbnail: {e}")),
+        })
+        .collect()
+}
+
 /// A verdict shown in a coloured banner at the top of the page.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Verdict {
     Accepted,
+    /// Usable, with a caveat the reader must weigh.
+    Warning,
     Rejected,
 }
 
@@ -86,6 +123,7 @@ th{background:#f3f3f3}td.num{text-align:right;font-variant-numeric:tabular-nums}
 .bad{background:#fde2e2;color:#8b0000}.good{background:#e3f4e3}\
 .verdict{font-size:1.2em;font-weight:bold;padding:.5em 1em;margin:1em 0}\
 .verdict.accepted{background:#e3f4e3;border:2px solid #2e7d32}.verdict.rejected{background:#fde2e2;border:2px solid #b71c1c}\
+.verdict.warning{background:#fff4d6;border:2px solid #b26a00}\
 figure{display:inline-block;margin:.5em 1em .5em 0;vertical-align:top}figcaption{font-size:.9em;max-width:520px;color:#444}\
 img{max-width:100%;height:auto}td img{max-width:none}.note{color:#555;font-size:.95em}code{background:#f3f3f3;padding:0 .2em}";
 
@@ -109,6 +147,7 @@ impl Page {
     pub fn verdict(&mut self, verdict: Verdict, text: &str) {
         let class = match verdict {
             Verdict::Accepted => "accepted",
+            Verdict::Warning => "warning",
             Verdict::Rejected => "rejected",
         };
         let _ = write!(self.body, "<div class=\"verdict {class}\">{}</div>\n", escape(text));

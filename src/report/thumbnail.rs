@@ -20,6 +20,8 @@ pub struct Overlay {
     /// Small marks (detected corners, row by row), drawn in [`CORNER`] where they are at
     /// least 6 thumbnail pixels apart.
     pub marks_px: Vec<Vec2>,
+    /// Marks that stand out (corners left out of a solve), drawn in [`DOT`] always.
+    pub bad_marks_px: Vec<Vec2>,
     /// Open polylines (the projected laser line), drawn in [`LASER`].
     pub polylines_px: Vec<Vec<Vec2>>,
     /// The dot used, circled in [`DOT`].
@@ -81,6 +83,9 @@ pub fn draw_overlay(img: &mut RgbImage, scale: f64, overlay: &Overlay) {
     };
     for m in overlay.marks_px.iter().filter(|_| spaced) {
         disc(img, map(m), 0.8, CORNER);
+    }
+    for m in &overlay.bad_marks_px {
+        disc(img, map(m), 1.6, DOT);
     }
     for line in &overlay.polylines_px {
         let pts: Vec<Vec2> = line.iter().map(map).collect();
