@@ -6,7 +6,7 @@
 //! Written also when gates fail or the fit is refused: that is when people need it.
 
 use super::plot::{colour, Chart, Layer, Marker};
-use super::thumbnail::Overlay;
+use super::thumbnail::{self, Overlay};
 use super::{file_name, thumbnail_cells, Cell, Page, ReportError, ReportFiles, Verdict};
 use crate::laser_calibration::{LaserCalibration, LaserJob, PhotoReport};
 use crate::laser_fit::distance_sigma;
@@ -163,27 +163,6 @@ fn error_chart(cal: &LaserCalibration, camera: &CameraModel, points: &[PhotoPoin
     c
 }
 
-/// The laser line's image: depths sampled densely, kept where the projection is inside the
-/// frame and faithful (far outside it the distortion polynomial folds back).
-fn laser_polylines(camera: &CameraModel, laser: &LaserLine) -> Vec<Vec<Vec2>> {
-    let mut lines = vec![Vec::new()];
-    for k in 0..400 {
-        let z = 0.1 * (60.0f64).powf(k as f64 / 399.0);
-        let p = laser.point_at_depth(z);
-        let faithful = camera
-            .project(&p)
-            .filter(|px| camera.contains(*px))
-            .filter(|px| camera.ray(*px).is_some_and(|r| r.angle(&p) < 1e-3));
-        match faithful {
-            Some(px) => lines.last_mut().expect("never empty").push(px),
-            None if !lines.last().expect("never empty").is_empty() => lines.push(Vec::new()),
-            None => {}
-        }
-    }
-    lines.retain(|l| l.len() > 1);
-    lines
-}
-
 fn overlay(report: &PhotoReport, camera: &CameraModel, laser: Option<&LaserLine>) -> Overlay {
     let mut o = Overlay::default();
     if let Some(b) = &report.board {
@@ -193,7 +172,7 @@ fn overlay(report: &PhotoReport, camera: &CameraModel, laser: Option<&LaserLine>
     }
     o.dot_px = report.dot_px.map(|d| Vec2::new(d[0], d[1]));
     if let Some(l) = laser {
-        o.polylines_px = laser_polylines(camera, l);
+        o.polylines_px = thumbnail::laser_image_px(camera, l);
     }
     o
 }

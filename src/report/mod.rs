@@ -9,10 +9,12 @@
 
 #[cfg(feature = "vision")]
 pub mod camera;
+pub mod check;
 #[cfg(feature = "vision")]
 pub mod laser;
 pub mod plot;
 pub mod thumbnail;
+pub mod validate;
 
 use crate::atomic_file::write_atomically;
 use std::fmt::Write as _;
@@ -181,11 +183,17 @@ impl Page {
         for row in rows {
             self.body.push_str("<tr>");
             for (i, cell) in row.into_iter().enumerate() {
-                let num = if numeric.get(i).copied().unwrap_or(false) { " num" } else { "" };
+                let num = numeric.get(i).copied().unwrap_or(false);
+                let td = |kind: &str| match (kind, num) {
+                    ("", false) => "<td>".to_string(),
+                    ("", true) => "<td class=\"num\">".to_string(),
+                    (k, false) => format!("<td class=\"{k}\">"),
+                    (k, true) => format!("<td class=\"{k} num\">"),
+                };
                 let _ = match cell {
-                    Cell::Text(t) => write!(self.body, "<td class=\"{num}\">{}</td>", escape(&t)),
-                    Cell::Bad(t) => write!(self.body, "<td class=\"bad{num}\">{}</td>", escape(&t)),
-                    Cell::Good(t) => write!(self.body, "<td class=\"good{num}\">{}</td>", escape(&t)),
+                    Cell::Text(t) => write!(self.body, "{}{}</td>", td(""), escape(&t)),
+                    Cell::Bad(t) => write!(self.body, "{}{}</td>", td("bad"), escape(&t)),
+                    Cell::Good(t) => write!(self.body, "{}{}</td>", td("good"), escape(&t)),
                     Cell::Image { src, alt, width_px, height_px } => write!(
                         self.body,
                         "<td><img src=\"{}\" alt=\"{}\" width=\"{width_px}\" height=\"{height_px}\"></td>",

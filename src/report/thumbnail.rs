@@ -2,7 +2,7 @@
 //! laser line's image. Overlays are given in full-resolution pixels (the convention of
 //! `docs/conventions.md`) and mapped onto the thumbnail here.
 
-use fslcal_core::Vec2;
+use fslcal_core::{CameraModel, LaserLine, Vec2};
 use image::{imageops, ImageReader, Rgb, RgbImage};
 use std::path::Path;
 
@@ -11,6 +11,7 @@ pub const CORNER: Rgb<u8> = Rgb([0, 200, 255]);
 pub const DOT: Rgb<u8> = Rgb([255, 40, 40]);
 pub const PREDICTED: Rgb<u8> = Rgb([255, 255, 255]);
 pub const LASER: Rgb<u8> = Rgb([255, 0, 255]);
+pub const MEASURED: Rgb<u8> = Rgb([0, 255, 120]);
 
 /// What to draw on one thumbnail, in full-resolution pixels.
 #[derive(Clone, Debug, Default)]
@@ -24,6 +25,8 @@ pub struct Overlay {
     pub bad_marks_px: Vec<Vec2>,
     /// Open polylines (the projected laser line), drawn in [`LASER`].
     pub polylines_px: Vec<Vec<Vec2>>,
+    /// Lengths measured on the photo (end to end), drawn in [`MEASURED`].
+    pub measured_px: Vec<[Vec2; 2]>,
     /// The dot used, circled in [`DOT`].
     pub dot_px: Option<Vec2>,
     /// Where the fitted line meets this photo's board, a cross in [`PREDICTED`].
@@ -43,6 +46,27 @@ pub struct Thumbnail {
     pub jpeg: Vec<u8>,
     pub width_px: u32,
     pub height_px: u32,
+}
+
+/// The laser line's image: depths sampled densely, kept where the projection is inside the
+/// frame and faithful (far outside it the distortion polynomial folds back).
+pub fn laser_image_px(camera: &CameraModel, laser: &LaserLine) -> Vec<Vec<Vec2>> {
+    let mut lines = vec![Vec::new()];
+    for k in 0..400 {
+        let z = 0.1 * (60.0f64).powf(k as f64 / 399.0);
+        let p = laser.point_at_depth(z);
+        let faithful = camera
+            .project(&p)
+            .filter(|px| camera.contains(*px))
+            .filter(|px| camera.ray(*px).is_some_and(|r| r.angle(&p) < 1e-3));
+        match faithful {
+            Some(px) => lines.last_mut().expect("never empty").push(px),
+            None if !lines.last().expect("never empty").is_empty() => lines.push(Vec::new()),
+            None => {}
+        }
+    }
+    lines.retain(|l| l.len() > 1);
+    lines
 }
 
 /// Reads `photo`, scales it to `width_px` wide and draws `overlay` on it.
@@ -92,6 +116,12 @@ pub fn draw_overlay(img: &mut RgbImage, scale: f64, overlay: &Overlay) {
         for w in pts.windows(2) {
             segment(img, w[0], w[1], 0.8, LASER);
         }
+    }
+    for [a, b] in &overlay.measured_px {
+        let (a, b) = (map(a), map(b));
+        segment(img, a, b, 1.0, MEASURED);
+        disc(img, a, 2.5, MEASURED);
+        disc(img, b, 2.5, MEASURED);
     }
     if let Some(p) = &overlay.predicted_px {
         let c = map(p);
