@@ -274,23 +274,8 @@ fn summary(args: &LaserArgs, cal: &LaserCalibration) -> String {
         "dots: {:.2}-{:.2} m deep, spanning {:.2} m along the laser\n",
         f.depth_range_m.0, f.depth_range_m.1, f.span_m
     );
-    let c = &f.covariance;
-    s += &format!(
-        "laser origin    ({:.2}, {:.2}, 0) mm  ±({:.2}, {:.2}) mm 1-sigma; baseline {:.1} mm\n",
-        l.origin_m[0] * 1e3,
-        l.origin_m[1] * 1e3,
-        c[0][0].sqrt() * 1e3,
-        c[1][1].sqrt() * 1e3,
-        l.baseline_m() * 1e3
-    );
-    s += &format!(
-        "laser direction ({:.5}, {:.5}, {:.5})  ±{:.4} deg 1-sigma; {:.3} deg from the optical axis\n",
-        l.direction[0],
-        l.direction[1],
-        l.direction[2],
-        (c[2][2] + c[3][3]).sqrt().atan().to_degrees(),
-        l.angle_to_optical_axis().to_degrees()
-    );
+    s += &format!("laser origin    {}; baseline {:.1} mm\n", f.origin_text(), l.baseline_m() * 1e3);
+    s += &format!("laser direction {}\n", f.direction_text());
     s += "predicted 1-sigma distance error from this calibration:";
     for (z, sig) in &f.distance_sigma_m {
         s += &format!("  at {z:.0} m: {:.1} mm ({:.2}%)", sig * 1e3, 100.0 * sig / z);

@@ -4,7 +4,7 @@
 
 use super::plot::{colour, Chart, Layer};
 use super::thumbnail::Overlay;
-use super::{file_name, thumbnail_cells, Cell, Page, ReportError, ReportFiles, Verdict};
+use super::{add_plot, file_name, thumbnail_cells, Cell, Page, ReportError, ReportFiles, Verdict};
 use crate::camera_calibration::{CameraCalibration, CornerResiduals};
 use crate::camera_fit::FRAME_CORNER_SHARE;
 use calib_targets::Checkerboard;
@@ -19,6 +19,15 @@ pub struct CameraReport<'a> {
 
 fn used(cal: &CameraCalibration) -> impl Iterator<Item = (usize, &CornerResiduals)> {
     cal.photos.iter().enumerate().filter(|(_, p)| p.status == "used").filter_map(|(i, p)| Some((i, p.corners.as_ref()?)))
+}
+
+/// The four outermost corners of a row-major grid `cols` wide, in order around it.
+fn grid_outline(corners: &[Vec2], cols: usize) -> Vec<Vec2> {
+    let n = corners.len();
+    if cols == 0 || n < cols {
+        return Vec::new();
+    }
+    vec![corners[0], corners[cols - 1], corners[n - 1], corners[n - cols]]
 }
 
 /// Residual vectors drawn from each corner, magnified so the 95th-percentile residual is
@@ -80,13 +89,9 @@ fn coverage_chart(cal: &CameraCalibration, board: &Checkerboard) -> Chart {
     c.y_range = Some((-0.5, h - 0.5));
     let cols = board.inner_cols as usize;
     for (k, (_, corners)) in used(cal).enumerate() {
-        let n = corners.corners_px.len();
-        if cols == 0 || n < cols {
-            continue;
-        }
-        let q = &corners.corners_px;
-        let mut outline: Vec<(f64, f64)> = [q[0], q[cols - 1], q[n - 1], q[n - cols]].iter().map(|p| (p.x, p.y)).collect();
-        outline.push(outline[0]);
+        let mut outline: Vec<(f64, f64)> = grid_outline(&corners.corners_px, cols).iter().map(|p| (p.x, p.y)).collect();
+        let Some(&first) = outline.first() else { continue };
+        outline.push(first);
         let name = if k == 0 { "board (used photo)".to_string() } else { String::new() };
         c.layers.push(Layer::Line { name, points: outline, colour: colour::USED, dashed: false });
     }
@@ -154,9 +159,7 @@ pub fn write(dir: &Path, report: &CameraReport) -> Result<PathBuf, ReportError> 
         ("camera-coverage.svg", coverage_chart(cal, report.board), "The used boards' corner grids over the frame, and the frame-corner zones that must each hold a detected corner."),
     ];
     for (name, chart, caption) in charts {
-        let svg = chart.svg()?;
-        files.add(format!("plots/{name}"), svg.into_bytes());
-        page.figure(&format!("plots/{name}"), &chart.title, caption, chart.size_px);
+        add_plot(&mut page, &mut files, name, &chart, caption)?;
     }
 
     page.heading("Photos");
@@ -167,12 +170,7 @@ pub fn write(dir: &Path, report: &CameraReport) -> Result<PathBuf, ReportError> 
         .map(|p| {
             let mut o = Overlay::default();
             if let Some(c) = &p.corners {
-                let cols = report.board.inner_cols as usize;
-                let n = c.corners_px.len();
-                if cols > 0 && n >= cols {
-                    let q = &c.corners_px;
-                    o.outlines_px.push(vec![q[0], q[cols - 1], q[n - 1], q[n - cols]]);
-                }
+                o.outlines_px.push(grid_outline(&c.corners_px, report.board.inner_cols as usize));
                 o.marks_px = c.corners_px.clone();
                 o.bad_marks_px = c.corners_px.iter().zip(&c.inlier).filter(|(_, k)| !**k).map(|(p, _)| *p).collect::<Vec<Vec2>>();
             }

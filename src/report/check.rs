@@ -8,7 +8,7 @@
 
 use super::plot::{colour, Chart, Layer, Marker};
 use super::thumbnail::{self, Overlay};
-use super::{file_name, thumbnail_cells, Cell, Page, ReportError, ReportFiles, Verdict};
+use super::{add_plot, file_name, thumbnail_cells, Cell, Page, ReportError, ReportFiles, Verdict};
 use fslcal_core::{CameraModel, LaserLine, Vec2};
 use std::path::{Path, PathBuf};
 
@@ -72,16 +72,14 @@ pub fn write(dir: &Path, r: &CheckReport) -> Result<PathBuf, ReportError> {
     } else {
         page.verdict(Verdict::Accepted, &format!("No drift: {flagged} of {checked} dots flagged{implied}."));
     }
-    let chart = offset_chart(r);
-    let svg = chart.svg()?;
-    files.add("plots/check-offsets.svg", svg.into_bytes());
     page.heading("Offsets");
-    page.figure(
-        "plots/check-offsets.svg",
-        &chart.title,
+    add_plot(
+        &mut page,
+        &mut files,
+        "check-offsets.svg",
+        &offset_chart(r),
         "How far each photo's dot lies from the image of the calibrated laser line. A rigid laser keeps them all under the threshold; a step or a climb through the dive means the mount moved.",
-        chart.size_px,
-    );
+    )?;
     page.heading("Photos");
     page.note("Drawn on each photo: the calibrated laser line's image (magenta) and the dot found (red ring).");
     let line = thumbnail::laser_image_px(&r.camera, &r.laser);

@@ -7,7 +7,7 @@
 
 use super::plot::{colour, Chart, Layer, Marker};
 use super::thumbnail::{self, Overlay};
-use super::{file_name, thumbnail_cells, Cell, Page, ReportError, ReportFiles, Verdict};
+use super::{add_plot, file_name, thumbnail_cells, Cell, Page, ReportError, ReportFiles, Verdict};
 use crate::laser_calibration::{LaserCalibration, LaserJob, PhotoReport};
 use crate::laser_fit::distance_sigma;
 use fslcal_core::{CameraModel, LaserLine, Vec2, Vec3};
@@ -257,9 +257,7 @@ pub fn write(dir: &Path, report: &LaserReport) -> Result<PathBuf, ReportError> {
             ),
         ];
         for (name, chart, caption) in charts {
-            let svg = chart.svg()?;
-            files.add(format!("plots/{name}"), svg.into_bytes());
-            page.figure(&format!("plots/{name}"), &chart.title, caption, chart.size_px);
+            add_plot(&mut page, &mut files, name, &chart, caption)?;
         }
     }
 
@@ -275,7 +273,6 @@ pub fn write(dir: &Path, report: &LaserReport) -> Result<PathBuf, ReportError> {
 fn key_figures(page: &mut Page, cal: &LaserCalibration, camera: &CameraModel, points: &[PhotoPoint], photos: &[PhotoReport]) {
     let f = &cal.fit;
     let l = &f.laser;
-    let c = &f.covariance;
     let worst = points
         .iter()
         .filter(|p| !p.outlier)
@@ -295,23 +292,9 @@ fn key_figures(page: &mut Page, cal: &LaserCalibration, camera: &CameraModel, po
         vec!["worst used dot".into(), format!("{:.2} px ({:.2} mm){worst}", f.residual_worst_px, f.residual_worst_mm).into()],
         vec!["outliers".into(), format!("{} of {}", cal.outliers.0, cal.outliers.1).into()],
         vec!["dots' depths; span along the laser".into(), format!("{:.2}-{:.2} m; {:.2} m", f.depth_range_m.0, f.depth_range_m.1, f.span_m).into()],
-        vec![
-            "laser origin (camera xy-plane)".into(),
-            format!("({:.2}, {:.2}, 0) mm ± ({:.2}, {:.2}) mm 1-sigma", l.origin_m[0] * 1e3, l.origin_m[1] * 1e3, c[0][0].sqrt() * 1e3, c[1][1].sqrt() * 1e3).into(),
-        ],
+        vec!["laser origin (camera xy-plane)".into(), f.origin_text().into()],
         vec!["baseline".into(), mm(l.baseline_m()).into()],
-        vec![
-            "laser direction".into(),
-            format!(
-                "({:.5}, {:.5}, {:.5}) ± {:.4} deg 1-sigma; {:.3} deg from the optical axis",
-                l.direction[0],
-                l.direction[1],
-                l.direction[2],
-                (c[2][2] + c[3][3]).sqrt().atan().to_degrees(),
-                l.angle_to_optical_axis().to_degrees()
-            )
-            .into(),
-        ],
+        vec!["laser direction".into(), f.direction_text().into()],
         vec!["predicted 1-sigma distance error".into(), sig.join("; ").into()],
         vec![
             "distance read from the dot minus the board's, used photos".into(),

@@ -49,6 +49,14 @@ pub fn safe_file_name(name: &str) -> String {
     name.chars().map(|c| if c.is_ascii_alphanumeric() || matches!(c, '-' | '_' | '.') { c } else { '_' }).collect()
 }
 
+/// Draws `chart` into `plots/NAME` beside the page and shows it as a figure.
+pub fn add_plot(page: &mut Page, files: &mut ReportFiles, name: &str, chart: &plot::Chart, caption: &str) -> Result<(), ReportError> {
+    let src = format!("plots/{name}");
+    files.add(src.clone(), chart.svg()?.into_bytes());
+    page.figure(&src, &chart.title, caption, chart.size_px);
+    Ok(())
+}
+
 /// A photo's file name without its folders, as tables show it.
 pub fn file_name(path: &str) -> String {
     Path::new(path).file_name().map_or_else(|| path.to_string(), |n| n.to_string_lossy().into_owned())

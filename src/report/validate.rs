@@ -8,7 +8,7 @@
 
 use super::plot::{colour, Chart, Layer, Marker};
 use super::thumbnail::Overlay;
-use super::{file_name, thumbnail_cells, Cell, Page, ReportError, ReportFiles, Verdict};
+use super::{add_plot, file_name, thumbnail_cells, Cell, Page, ReportError, ReportFiles, Verdict};
 use fslcal_core::Vec2;
 use std::path::{Path, PathBuf};
 
@@ -152,9 +152,7 @@ pub fn write(dir: &Path, r: &ValidationReport) -> Result<PathBuf, ReportError> {
         ("validate-error.svg", error_chart(r), "Each photo's length error against its distance, with the tolerance band. Errors that climb or fall with distance mean a laser direction error, which a check at one distance misses."),
         ("validate-measured.svg", measured_vs_true_chart(r), "Measured against true length; the band is the tolerance."),
     ] {
-        let svg = chart.svg()?;
-        files.add(format!("plots/{name}"), svg.into_bytes());
-        page.figure(&format!("plots/{name}"), &chart.title, caption, chart.size_px);
+        add_plot(&mut page, &mut files, name, &chart, caption)?;
     }
     page.heading("Photos");
     page.note("Drawn on each photo: the detected target (yellow), the measured length (green) and the laser dot (red ring).");
