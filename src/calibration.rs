@@ -1,10 +1,11 @@
 //! A unit's calibration as the commands that *use* one see it (`--cal CAL`): the camera, the
 //! laser line and the laser's covariance, whichever file they came from.
 //!
-//! Today that is the JSON `fslcal laser --out` writes; the signed `.fslcal` unit file reads
-//! into the same struct, so `validate`, `check` and `measure` never care which they were given.
+//! Either the JSON `fslcal laser --out` writes or the signed `.fslcal` unit file (told apart
+//! by its magic), so `validate`, `check` and `measure` never care which they were given.
 
 use crate::laser_fit::distance_sigma;
+use fslcal_core::unit_file::{self, FormatError};
 use fslcal_core::{CameraModel, Distortion, LaserLine};
 use nalgebra::Matrix4;
 use serde::Deserialize;
@@ -42,6 +43,8 @@ pub enum CalibrationError {
     NotACalibration { path: String, why: String },
     #[error("{path}: the calibration is implausible ({why}); re-run `fslcal laser`")]
     Implausible { path: String, why: String },
+    #[error("{path}: {cause}")]
+    UnitFile { path: String, cause: FormatError },
 }
 
 /// The camera block of `fslcal laser --out`, keyed as `fslcal camera --json` prints it.
@@ -85,7 +88,34 @@ pub fn camera_json(c: &CameraModel) -> serde_json::Value {
 pub fn load(path: &Path) -> Result<Calibration, CalibrationError> {
     let name = path.display().to_string();
     let bytes = std::fs::read(path).map_err(|source| CalibrationError::Io { path: name.clone(), source })?;
-    parse_laser_json(&bytes, path)
+    if bytes.starts_with(&unit_file::MAGIC) {
+        parse_unit_file(&bytes, path)
+    } else {
+        parse_laser_json(&bytes, path)
+    }
+}
+
+/// Reads a signed unit file whose signature matches its contents (a tampered file is
+/// refused; whether the signer is trusted is for `fslcal verify` to say).
+pub fn parse_unit_file(bytes: &[u8], path: &Path) -> Result<Calibration, CalibrationError> {
+    let err = |cause| CalibrationError::UnitFile { path: path.display().to_string(), cause };
+    let file = unit_file::SignedUnitFile::decode(bytes).map_err(err)?;
+    file.check_signature().map_err(err)?;
+    Ok(from_unit_file(&file, path))
+}
+
+/// The calibration a decoded unit file holds.
+pub fn from_unit_file(file: &unit_file::SignedUnitFile<'_>, path: &Path) -> Calibration {
+    let c = &file.contents;
+    Calibration {
+        camera: c.camera,
+        laser: c.laser,
+        laser_covariance: c.laser_covariance,
+        depth_range_m: c.depth_range_m.map(|[a, b]| (a as f64, b as f64)),
+        unit: Some(c.unit.to_string()),
+        camera_serial: c.camera_identity.serial.map(str::to_string),
+        source: path.to_path_buf(),
+    }
 }
 
 fn parse_laser_json(bytes: &[u8], path: &Path) -> Result<Calibration, CalibrationError> {
@@ -160,6 +190,26 @@ mod tests {
         // Depth sigma grows with depth for a fixed covariance.
         let (a, b) = (cal.distance_sigma_m(1.0).unwrap(), cal.distance_sigma_m(4.0).unwrap());
         assert!(a > 0.0 && b > 4.0 * a, "{a} {b}");
+    }
+
+    #[test]
+    fn reads_a_signed_unit_file_and_refuses_a_tampered_one() {
+        let dir = tempfile::tempdir().unwrap();
+        let mut buf = [0u8; unit_file::MAX_FILE_BYTES];
+        let n = unit_file::example().sign(&unit_file::EXAMPLE_SECRET_KEY, &mut buf).unwrap();
+        let path = dir.path().join("FSL-03.fslcal");
+        std::fs::write(&path, &buf[..n]).unwrap();
+        let cal = load(&path).unwrap();
+        assert_eq!(cal.unit.as_deref(), Some("FSL-03"));
+        assert_eq!(cal.camera_serial.as_deref(), Some("BJ7654321"));
+        assert_eq!(cal.camera.fx_px, 2912.5);
+        assert_eq!(cal.laser.origin_m, [-0.0405, -0.1055, 0.0]);
+        assert_eq!(cal.depth_range_m, Some((0.75, 4.5)));
+        assert_eq!(cal.laser_covariance[1][0], 1.0e-9);
+        buf[60] ^= 0x01; // inside fx
+        std::fs::write(&path, &buf[..n]).unwrap();
+        let msg = load(&path).unwrap_err().to_string();
+        assert!(msg.contains("FSL-03.fslcal: tampered"), "{msg}");
     }
 
     #[test]

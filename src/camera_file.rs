@@ -64,29 +64,21 @@ fn matrix(text: &str, key: &'static str, path: &str) -> Result<Vec<f64>, CameraF
         .collect()
 }
 
-/// Parses the text of an OpenCV camera file. `path` is only used in error messages.
-pub fn parse(text: &str, path: &str) -> Result<(CameraModel, CameraFileExtras), CameraFileError> {
-    if !text.trim_start().starts_with("%YAML") {
-        return Err(CameraFileError::NotYaml { path: path.into() });
-    }
-    let int = |key: &'static str| -> Result<u32, CameraFileError> {
-        let v = scalar(text, key).ok_or_else(|| CameraFileError::Missing { path: path.into(), key })?;
-        v.parse::<u32>().map_err(|_| CameraFileError::Malformed { path: path.into(), key, why: format!("`{v}` is not a whole number") })
-    };
-    let (w, h) = (int("image_width")?, int("image_height")?);
-    let k = matrix(text, "camera_matrix", path)?;
-    if k.len() != 9 {
-        return Err(CameraFileError::Malformed { path: path.into(), key: "camera_matrix", why: format!("{} values, expected 9", k.len()) });
-    }
-    let d = matrix(text, "distortion_coefficients", path)?;
-    // OpenCV may write 4, 5, 8, 12 or 14 coefficients; fslcal's model is the 5-term one, so
-    // anything past k3 must be zero to be representable.
+/// Why an OpenCV camera matrix and distortion vector are not a camera fslcal can use.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum OpencvCameraProblem {
+    /// This many coefficients, not representable in the 5-term model.
+    Distortion(usize),
+    /// Skew, a non-standard last row, or focal lengths or principal point out of range.
+    Implausible,
+}
+
+/// The camera an OpenCV camera matrix (row-major 3x3) and distortion vector describe for a
+/// `w` x `h` image. OpenCV may give 4, 5, 8, 12 or 14 coefficients; fslcal's model is the
+/// 5-term one, so anything past k3 must be zero to be representable.
+pub fn camera_from_opencv(w: u32, h: u32, k: &[f64; 9], d: &[f64]) -> Result<CameraModel, OpencvCameraProblem> {
     if d.len() < 4 || d.iter().skip(5).any(|&c| c != 0.0) {
-        return Err(CameraFileError::Malformed {
-            path: path.into(),
-            key: "distortion_coefficients",
-            why: format!("{} coefficients; fslcal uses OpenCV's 5-term model (k1, k2, p1, p2, k3)", d.len()),
-        });
+        return Err(OpencvCameraProblem::Distortion(d.len()));
     }
     let mut c = [0.0; 5];
     c[..d.len().min(5)].copy_from_slice(&d[..d.len().min(5)]);
@@ -100,8 +92,36 @@ pub fn parse(text: &str, path: &str) -> Result<(CameraModel, CameraFileExtras), 
         distortion: Distortion::from_opencv(c),
     };
     if !camera.is_plausible() || k[1] != 0.0 || k[3] != 0.0 || k[6] != 0.0 || k[7] != 0.0 || k[8] != 1.0 {
-        return Err(CameraFileError::Implausible { path: path.into(), w, h });
+        return Err(OpencvCameraProblem::Implausible);
     }
+    Ok(camera)
+}
+
+/// Parses the text of an OpenCV camera file. `path` is only used in error messages.
+pub fn parse(text: &str, path: &str) -> Result<(CameraModel, CameraFileExtras), CameraFileError> {
+    if !text.trim_start().starts_with("%YAML") {
+        return Err(CameraFileError::NotYaml { path: path.into() });
+    }
+    let int = |key: &'static str| -> Result<u32, CameraFileError> {
+        let v = scalar(text, key).ok_or_else(|| CameraFileError::Missing { path: path.into(), key })?;
+        v.parse::<u32>().map_err(|_| CameraFileError::Malformed { path: path.into(), key, why: format!("`{v}` is not a whole number") })
+    };
+    let (w, h) = (int("image_width")?, int("image_height")?);
+    let k = matrix(text, "camera_matrix", path)?;
+    let k: [f64; 9] = k.as_slice().try_into().map_err(|_| CameraFileError::Malformed {
+        path: path.into(),
+        key: "camera_matrix",
+        why: format!("{} values, expected 9", k.len()),
+    })?;
+    let d = matrix(text, "distortion_coefficients", path)?;
+    let camera = camera_from_opencv(w, h, &k, &d).map_err(|problem| match problem {
+        OpencvCameraProblem::Distortion(n) => CameraFileError::Malformed {
+            path: path.into(),
+            key: "distortion_coefficients",
+            why: format!("{n} coefficients; fslcal uses OpenCV's 5-term model (k1, k2, p1, p2, k3)"),
+        },
+        OpencvCameraProblem::Implausible => CameraFileError::Implausible { path: path.into(), w, h },
+    })?;
     let extras = CameraFileExtras { avg_reprojection_error: scalar(text, "avg_reprojection_error").and_then(|s| s.parse().ok()) };
     Ok((camera, extras))
 }

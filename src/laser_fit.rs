@@ -137,12 +137,11 @@ pub enum FitError {
 }
 
 fn params_to_line(p: &Vector4<f64>) -> LaserLine {
-    let d = Vec3::new(p[2], p[3], 1.0).normalize();
-    LaserLine { origin_m: [p[0], p[1], 0.0], direction: [d.x, d.y, d.z] }
+    LaserLine::from_params([p[0], p[1], p[2], p[3]])
 }
 
 fn line_to_params(l: &LaserLine) -> Vector4<f64> {
-    Vector4::new(l.origin_m[0], l.origin_m[1], l.direction[0] / l.direction[2], l.direction[1] / l.direction[2])
+    Vector4::from(l.to_params())
 }
 
 /// The 3D point where the dot seen at `px` lies on `plane`.
@@ -546,20 +545,8 @@ pub fn fit(
 /// 1-sigma error of the depth read from a dot at true depth `z_m`, from the calibration's
 /// covariance alone: the dot's pixel is held fixed and the line's parameters vary.
 pub fn distance_sigma(camera: &CameraModel, line: &LaserLine, cov: &Matrix4<f64>, z_m: f64) -> Option<f64> {
-    let px = line.pixel_at_depth(camera, z_m)?;
-    let p = line_to_params(line);
-    let mut g = Vector4::zeros();
-    for c in 0..4 {
-        let h = 1e-6;
-        let mut a = p;
-        let mut b = p;
-        a[c] += h;
-        b[c] -= h;
-        let za = params_to_line(&a).fix_from_pixel(camera, px)?.depth_m;
-        let zb = params_to_line(&b).fix_from_pixel(camera, px)?.depth_m;
-        g[c] = (za - zb) / (2.0 * h);
-    }
-    Some((g.transpose() * cov * g)[(0, 0)].max(0.0).sqrt())
+    let rows = [0, 1, 2, 3].map(|a| [0, 1, 2, 3].map(|b| cov[(a, b)]));
+    line.depth_sigma_at_depth(camera, &rows, z_m)
 }
 
 /// Angle between two directions, degrees.

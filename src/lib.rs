@@ -9,13 +9,19 @@ pub mod calibration;
 #[cfg(feature = "vision")]
 pub mod camera_calibration;
 pub mod camera_fit;
+pub mod calibration_change;
 pub mod camera_file;
 pub mod cli;
 pub mod dot;
+pub mod fishsense_pkg;
+pub mod keys;
 #[cfg(feature = "vision")]
 pub mod laser_calibration;
 pub mod laser_fit;
 pub mod report;
+pub mod unit_files;
+pub mod unit_registry;
+pub mod utc_time;
 #[cfg(feature = "vision")]
 pub mod vision;
 

@@ -6,7 +6,7 @@ mod common;
 use calib_targets::Checkerboard;
 use common::camera_figures;
 use fslcal::camera_calibration::{calibrate, solve_views, CameraCalibration, CameraJob};
-use fslcal::camera_fit::{one_sigma_from_opencv46, ViewPoints};
+use fslcal::camera_fit::{one_sigma_from_opencv46, residuals_px, rms_px, ViewPoints};
 use fslcal::camera_file;
 use fslcal::vision::{calibrate_intrinsics, SolveOptions};
 use fslcal_core::{Vec2, Vec3};
@@ -76,7 +76,6 @@ fn solver_reproduces_bouguets_answer_on_calib1() {
 /// 1-sigma of fx, fy, cx, cy from sqrt(diag((JᵀJ)⁻¹) σ²), J by central differences over the
 /// 8 intrinsics (k3 fixed) and every view's pose, σ² = Σr² / (2N - P).
 fn independent_sigma(views: &[ViewPoints], s: &fslcal::vision::IntrinsicsSolve) -> [f64; 4] {
-    use fslcal::camera_fit::residuals_px;
     use fslcal_core::{CameraModel, Distortion};
     use nalgebra::{DMatrix, DVector};
     let c = s.camera;
@@ -205,4 +204,49 @@ fn opencv_left_set_lands_on_the_small_window_answer() {
     let rms02 = left02.rms_px.unwrap();
     assert!(rms02 < 2.0 * cal.rms_px, "left02 {rms02} px against {} overall", cal.rms_px);
     assert_eq!(cal.used_photos(), 13);
+}
+
+/// The reason the refinement window is sized per corner: with OpenCV sample's fixed 11x11
+/// half-window the same chain makes left02 (the far board) the worst photo by far and pulls fx
+/// towards the published 535.9.
+#[test]
+fn a_fixed_11x11_window_damages_the_far_board() {
+    use fslcal::vision::{find_checkerboard, EncodedPhoto};
+    use opencv::core::{Point2f, Size, TermCriteria, TermCriteria_Type, Vector};
+    use opencv::{imgcodecs, imgproc};
+    let board: Checkerboard = "9x6@25mm".parse().unwrap();
+    let object: Vec<Vec3> = board.object_points().iter().map(|p| Vec3::new(p[0], p[1], p[2])).collect();
+    let mut names = Vec::new();
+    let mut views = Vec::new();
+    for p in left_set().photos.iter().map(|p| PathBuf::from(&p.file)) {
+        let encoded = EncodedPhoto::read(&p).unwrap();
+        let found = find_checkerboard(&encoded, 9, 6).unwrap().unwrap();
+        let grey = imgcodecs::imread(p.to_str().unwrap(), imgcodecs::IMREAD_GRAYSCALE).unwrap();
+        let mut pts: Vector<Point2f> = found.corners_px.iter().map(|c| Point2f::new(c.x as f32, c.y as f32)).collect();
+        let criteria = TermCriteria::new((TermCriteria_Type::COUNT as i32) | (TermCriteria_Type::EPS as i32), 30, 0.1).unwrap();
+        imgproc::corner_sub_pix(&grey, &mut pts, Size::new(11, 11), Size::new(-1, -1), criteria).unwrap();
+        views.push(ViewPoints { object_m: object.clone(), image_px: pts.iter().map(|q| Vec2::new(q.x as f64, q.y as f64)).collect() });
+        names.push(p.file_name().unwrap().to_string_lossy().into_owned());
+    }
+    // One solve, no culling: OpenCV's sample as published.
+    let s = calibrate_intrinsics(&views, (640, 480), SolveOptions::default()).unwrap();
+    let rms: Vec<f64> = views
+        .iter()
+        .zip(&s.poses)
+        .map(|(v, pose)| rms_px(residuals_px(&s.camera, pose, v).iter().map(|r| r.norm())))
+        .collect();
+    let i02 = names.iter().position(|n| n == "left02.jpg").unwrap();
+    let mut others: Vec<f64> = rms.iter().enumerate().filter(|(i, _)| *i != i02).map(|(_, r)| *r).collect();
+    others.sort_by(f64::total_cmp);
+    eprintln!(
+        "fixed 11x11 window: fx {:.2} fy {:.2}; left02 RMS {:.2} px, the other photos' median {:.2} px (sized windows: left02 {:.3} px, fx {:.2})",
+        s.camera.fx_px,
+        s.camera.fy_px,
+        rms[i02],
+        others[others.len() / 2],
+        left_set().photos[i02].rms_px.unwrap(),
+        left_set().camera.fx_px
+    );
+    assert!(rms[i02] > 3.0 * others[others.len() / 2]);
+    assert!(s.camera.fx_px - left_set().camera.fx_px > 1.0);
 }

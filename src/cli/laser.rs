@@ -1,8 +1,10 @@
 //! `fslcal laser`: the command a diver runs before a dive.
 
 use super::progress;
+use super::signing::{self, SigningArgs};
 use crate::atomic_file::write_atomically;
-use crate::camera_file;
+use crate::{keys, utc_time};
+use fslcal_core::unit_file::{CameraIdentity, FitMethod, FitQuality, UnitFile};
 use crate::dot::DotDetectorParams;
 use crate::laser_calibration::{calibrate, HandDots, LaserCalibration, LaserError, LaserJob, PhotoReport};
 use crate::laser_fit::{Gates, Method};
@@ -22,7 +24,7 @@ use std::process::ExitCode;
 #[derive(clap::Args, Debug)]
 pub struct LaserArgs {
     /// Camera intrinsics: OpenCV FileStorage YAML, as OpenCV's calibration sample or
-    /// `fslcal camera --out` writes it.
+    /// `fslcal camera --out` writes it, or a previous .fslcal of the same unit.
     #[arg(long, value_name = "CAMERA")]
     camera: PathBuf,
 
@@ -58,7 +60,8 @@ pub struct LaserArgs {
     #[arg(long)]
     json: bool,
 
-    /// Write the result (JSON) here; only when every gate passes.
+    /// Write the result here, only when every gate passes: a signed unit file when the name
+    /// ends in `.fslcal` (needs --unit and --key), JSON otherwise.
     #[arg(long, value_name = "FILE")]
     out: Option<PathBuf>,
 
@@ -67,6 +70,9 @@ pub struct LaserArgs {
     /// when a gate fails or the fit is refused, since that is when it is needed.
     #[arg(long, value_name = "DIR")]
     report: Option<PathBuf>,
+
+    #[command(flatten)]
+    signing: SigningArgs,
 
     /// Calibration photos (JPEG or PNG).
     #[arg(required = true, value_name = "PHOTOS")]
@@ -122,7 +128,15 @@ fn hand_dots(args: &LaserArgs) -> anyhow::Result<HandDots> {
 }
 
 pub fn run(args: LaserArgs) -> anyhow::Result<ExitCode> {
-    let (camera, _) = camera_file::read(&args.camera)?;
+    let (camera, prior) = signing::read_camera(&args.camera, &args.signing)?;
+    let signed_out = args.out.as_deref().filter(|o| signing::is_unit_file_path(o));
+    if let Some(out) = signed_out {
+        // Refuse before the long fit, not after it.
+        let mut check = args.signing.clone();
+        check.unit = check.unit.or_else(|| prior.as_ref().map(|p| p.unit.clone()));
+        check.unit_and_key(out)?;
+        keys::read_secret(check.key.as_deref().unwrap_or(out))?;
+    }
     let hand_dots = hand_dots(&args)?;
     for p in &args.photos {
         if !p.is_file() {
@@ -165,7 +179,12 @@ pub fn run(args: LaserArgs) -> anyhow::Result<ExitCode> {
         let note = if args.out.is_some() { "; nothing written" } else { "" };
         bail!("laser calibration rejected: {}{note}", failed.join(", "));
     }
-    if let Some(out) = &args.out {
+    if let Some(out) = signed_out {
+        let size = signing::sign_unit_file(out, &args.signing, prior.as_ref(), unit_contents(&args.target.to_string(), &camera, &cal))?;
+        if !args.json {
+            println!("wrote {} (signed, {size} bytes)", out.display());
+        }
+    } else if let Some(out) = &args.out {
         let mut text = serde_json::to_string_pretty(&report)?;
         text.push('\n');
         write_atomically(out, text.as_bytes()).with_context(|| format!("{}: cannot write the result", out.display()))?;
@@ -217,6 +236,40 @@ fn json_report(args: &LaserArgs, camera: &CameraModel, cal: &LaserCalibration) -
         "accepted": cal.accepted(),
         "photos": cal.photos,
     })
+}
+
+/// What the signed unit file records of this fit; the unit and camera identity are filled
+/// in by `signing::sign_unit_file`.
+fn unit_contents<'a>(target: &'a str, camera: &CameraModel, cal: &LaserCalibration) -> UnitFile<'a> {
+    let f = &cal.fit;
+    let narrow = |n: usize| u16::try_from(n).unwrap_or(u16::MAX);
+    UnitFile {
+        unit: "",
+        camera_identity: CameraIdentity { make: "", model: "", serial: None },
+        camera: *camera,
+        laser: f.laser,
+        // The file keeps the upper triangle; average away the fit's rounding asymmetry.
+        laser_covariance: std::array::from_fn(|r| std::array::from_fn(|c| 0.5 * (f.covariance[r][c] + f.covariance[c][r]))),
+        made_utc_s: utc_time::now_s(),
+        water_depth_m: None,
+        depth_range_m: Some([f.depth_range_m.0 as f32, f.depth_range_m.1 as f32]),
+        fit: Some(FitQuality {
+            photos_used: narrow(f.used),
+            photos_total: narrow(cal.photos.len()),
+            outliers: narrow(cal.outliers.0),
+            residual_rms_px: f.residual_rms_px as f32,
+            residual_worst_px: f.residual_worst_px as f32,
+            residual_rms_mm: f.residual_rms_mm as f32,
+            residual_worst_mm: f.residual_worst_mm as f32,
+            span_m: f.span_m as f32,
+        }),
+        method: match f.method {
+            Method::Reprojection => FitMethod::Reprojection,
+            Method::GaussNewton => FitMethod::GaussNewton,
+            Method::Average => FitMethod::Average,
+        },
+        target: Some(target),
+    }
 }
 
 fn name_of(file: &str) -> String {

@@ -1,11 +1,18 @@
 //! The command line: one file per subcommand, each with its clap `Args` (whose doc comments
 //! are the help text) and a `run()`.
 
+mod export;
+mod import;
+mod inspect;
+mod keygen;
 #[cfg(feature = "vision")]
 mod camera;
 #[cfg(feature = "vision")]
 mod laser;
 mod progress;
+mod signing;
+mod units;
+mod verify;
 
 use clap::{Parser, Subcommand};
 use std::process::ExitCode;
@@ -25,6 +32,12 @@ enum Command {
     Camera(camera::CameraArgs),
     #[cfg(feature = "vision")]
     Laser(laser::LaserArgs),
+    Keygen(keygen::KeygenArgs),
+    Inspect(inspect::InspectArgs),
+    Verify(verify::VerifyArgs),
+    Units(units::UnitsArgs),
+    Import(import::ImportArgs),
+    Export(export::ExportArgs),
 }
 
 /// Parses the command line and runs the subcommand.
@@ -35,5 +48,11 @@ pub fn run() -> anyhow::Result<ExitCode> {
         Command::Camera(args) => camera::run(args),
         #[cfg(feature = "vision")]
         Command::Laser(args) => laser::run(args),
+        Command::Keygen(args) => keygen::run(args),
+        Command::Inspect(args) => inspect::run(args),
+        Command::Verify(args) => verify::run(args),
+        Command::Units(args) => units::run(args),
+        Command::Import(args) => import::run(args),
+        Command::Export(args) => export::run(args),
     }
 }

@@ -170,6 +170,52 @@ impl LaserLine {
         let e = g(0.5 * (a + b));
         e.is_finite().then_some(e)
     }
+
+    /// The four free parameters of a line with its origin in the z = 0 plane: origin x and y
+    /// (metres) and the direction's slopes x/z and y/z. Laser fits and their covariances use
+    /// this parametrisation.
+    pub fn to_params(&self) -> [f64; 4] {
+        let d = &self.direction;
+        [self.origin_m[0], self.origin_m[1], d[0] / d[2], d[1] / d[2]]
+    }
+
+    /// Inverse of [`LaserLine::to_params`].
+    pub fn from_params(p: [f64; 4]) -> Self {
+        let d = Vec3::new(p[2], p[3], 1.0).normalize();
+        LaserLine { origin_m: [p[0], p[1], 0.0], direction: [d.x, d.y, d.z] }
+    }
+
+    /// 1-sigma error of the depth read from a dot seen at `dot_px`, from the calibration's
+    /// covariance alone (`covariance` of [`LaserLine::to_params`], row-major): the pixel is
+    /// held fixed and the line's parameters vary. First-order propagation `g^T C g` with the
+    /// gradient `g` of depth by central differences, which the closed form makes exact to
+    /// well below the covariance's own precision.
+    pub fn depth_sigma_at_pixel(&self, camera: &CameraModel, covariance: &[[f64; 4]; 4], dot_px: Vec2) -> Option<f64> {
+        let ray = camera.ray(dot_px)?;
+        let p = self.to_params();
+        let mut g = [0.0; 4];
+        for (c, gc) in g.iter_mut().enumerate() {
+            let h = 1e-6;
+            let (mut a, mut b) = (p, p);
+            a[c] += h;
+            b[c] -= h;
+            let za = LaserLine::from_params(a).fix_from_ray(&ray)?.depth_m;
+            let zb = LaserLine::from_params(b).fix_from_ray(&ray)?.depth_m;
+            *gc = (za - zb) / (2.0 * h);
+        }
+        let mut var = 0.0;
+        for (r, row) in covariance.iter().enumerate() {
+            for (c, cov) in row.iter().enumerate() {
+                var += g[r] * cov * g[c];
+            }
+        }
+        var.is_finite().then(|| libm::sqrt(var.max(0.0)))
+    }
+
+    /// [`LaserLine::depth_sigma_at_pixel`] for the dot the line itself puts at depth `z_m`.
+    pub fn depth_sigma_at_depth(&self, camera: &CameraModel, covariance: &[[f64; 4]; 4], z_m: f64) -> Option<f64> {
+        self.depth_sigma_at_pixel(camera, covariance, self.pixel_at_depth(camera, z_m)?)
+    }
 }
 
 #[cfg(test)]
@@ -212,6 +258,25 @@ mod tests {
         let p = l.point_at_depth(2.0) + Vec3::new(0.01, 0.0, 0.0);
         let fix = l.fix_from_pixel(&c, c.project(&p).unwrap()).unwrap();
         assert!(fix.miss_m > 0.005 && fix.miss_m < 0.0101, "{}", fix.miss_m);
+    }
+
+    #[test]
+    fn depth_sigma_matches_a_by_hand_gradient_and_grows_with_depth() {
+        let (c, l) = (cam(), laser());
+        let back = LaserLine::from_params(l.to_params()).to_params();
+        assert!(back.iter().zip(l.to_params()).all(|(a, b)| (a - b).abs() < 1e-15));
+        // Only the slope along the baseline (y here) uncertain: sigma = |dz/dslope_y| * s.
+        let s = 1e-4;
+        let cov = [[0.0; 4], [0.0; 4], [0.0; 4], [0.0, 0.0, 0.0, s * s]];
+        let px = l.pixel_at_depth(&c, 2.0).unwrap();
+        let mut p = l.to_params();
+        p[3] += 1e-5;
+        let dz = (LaserLine::from_params(p).fix_from_pixel(&c, px).unwrap().depth_m - 2.0) / 1e-5;
+        let sigma = l.depth_sigma_at_pixel(&c, &cov, px).unwrap();
+        assert!((sigma - dz.abs() * s).abs() < 1e-3 * sigma, "{sigma} vs {}", dz.abs() * s);
+        // Depth error of a slope error grows about as z^2 / baseline.
+        let far = l.depth_sigma_at_depth(&c, &cov, 4.0).unwrap();
+        assert!(far > 3.5 * sigma && far < 4.5 * sigma, "{sigma} {far}");
     }
 
     #[test]

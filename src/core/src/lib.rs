@@ -1,5 +1,5 @@
-//! fslcal's core: the camera model, the laser geometry, and (later) the calibration file
-//! format, shared by the `fslcal` CLI and the `firmware-sim` camera companion.
+//! fslcal's core: the camera model, the laser geometry, and the signed calibration file
+//! format (`unit_file`), shared by the `fslcal` CLI and the `firmware-sim` camera companion.
 //!
 //! Built `#![no_std]` when the default `std` feature is off, and never depends on OpenCV,
 //! `image` or `rawler`: CI checks both.
@@ -19,6 +19,7 @@
 
 pub mod camera;
 pub mod laser;
+pub mod unit_file;
 
 pub use camera::{CameraModel, Distortion};
 pub use laser::{DotFix, LaserLine, Plane};

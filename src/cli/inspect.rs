@@ -1,0 +1,147 @@
+//! `fslcal inspect`: everything a unit file says, without needing to trust its signer.
+
+use crate::calibration::camera_json;
+use crate::keys::hex;
+use crate::unit_files::{self, UnitFileError};
+use crate::utc_time;
+use fslcal_core::unit_file::SignedUnitFile;
+use serde_json::json;
+use std::path::{Path, PathBuf};
+use std::process::ExitCode;
+
+/// Show what a signed unit file (.fslcal) holds and whether its signature matches.
+///
+/// Whether the signer is one you trust is `fslcal verify`'s question; this only says whether
+/// the file is intact as its signer made it.
+#[derive(clap::Args, Debug)]
+pub struct InspectArgs {
+    /// The unit file.
+    #[arg(value_name = "FILE")]
+    file: PathBuf,
+
+    /// Print one JSON object instead of the summary.
+    #[arg(long)]
+    json: bool,
+}
+
+/// Reads and decodes a unit file (the signature unchecked), naming the file in any error.
+pub(super) fn decode<'a>(path: &Path, bytes: &'a [u8]) -> Result<SignedUnitFile<'a>, UnitFileError> {
+    SignedUnitFile::decode(bytes).map_err(UnitFileError::at(path))
+}
+
+/// The JSON description of a unit file every command that reports one uses.
+pub(super) fn unit_file_json(path: &Path, size_bytes: usize, f: &SignedUnitFile<'_>) -> serde_json::Value {
+    let c = &f.contents;
+    let l = &c.laser;
+    json!({
+        "file": path.display().to_string(),
+        "format_version": f.version,
+        "size_bytes": size_bytes,
+        "unit": c.unit,
+        "camera_identity": {
+            "make": c.camera_identity.make,
+            "model": c.camera_identity.model,
+            "serial": c.camera_identity.serial,
+        },
+        "camera": camera_json(&c.camera),
+        "laser": {
+            "origin_m": l.origin_m,
+            "direction": l.direction,
+            "baseline_m": l.baseline_m(),
+            "angle_to_optical_axis_deg": l.angle_to_optical_axis().to_degrees(),
+            "covariance": c.laser_covariance,
+            "covariance_parameters": ["origin_x_m", "origin_y_m", "direction_x_over_z", "direction_y_over_z"],
+        },
+        "made_utc": utc_time::format_iso(c.made_utc_s),
+        "water_depth_m": c.water_depth_m,
+        "depth_range_m": c.depth_range_m,
+        "method": c.method.name(),
+        "fit": c.fit.map(|q| json!({
+            "photos_used": q.photos_used,
+            "photos_total": q.photos_total,
+            // As `fslcal laser` counts them: of the photos with a dot.
+            "outliers": format!("{} of {}", q.outliers, q.photos_used + q.outliers),
+            "residual_rms_px": q.residual_rms_px,
+            "residual_worst_px": q.residual_worst_px,
+            "residual_rms_mm": q.residual_rms_mm,
+            "residual_worst_mm": q.residual_worst_mm,
+            "span_m": q.span_m,
+        })),
+        "target": c.target,
+        "signer": f.key_id().to_string(),
+        "signer_public_key": hex(&f.signer),
+        "signature": if f.check_signature().is_ok() { "valid" } else { "invalid" },
+    })
+}
+
+fn summary(path: &Path, size: usize, f: &SignedUnitFile<'_>) -> String {
+    let c = &f.contents;
+    let (cam, l) = (&c.camera, &c.laser);
+    let id = &c.camera_identity;
+    let mut s = format!("{}: unit {}, format version {}, {size} bytes\n", path.display(), c.unit, f.version);
+    s += &format!("camera    {} {}, serial {}\n", id.make, id.model, id.serial.unwrap_or("-"));
+    s += &format!(
+        "          {}x{} px, f ({:.2}, {:.2}) px, centre ({:.2}, {:.2}) px, dist {:?}\n",
+        cam.width_px,
+        cam.height_px,
+        cam.fx_px,
+        cam.fy_px,
+        cam.cx_px,
+        cam.cy_px,
+        cam.distortion.to_opencv()
+    );
+    let cov = &c.laser_covariance;
+    s += &format!(
+        "laser     origin ({:.2}, {:.2}, 0) mm ±({:.2}, {:.2}) mm, direction ({:.5}, {:.5}, {:.5}) ±{:.4} deg, {:.3} deg off axis\n",
+        l.origin_m[0] * 1e3,
+        l.origin_m[1] * 1e3,
+        cov[0][0].sqrt() * 1e3,
+        cov[1][1].sqrt() * 1e3,
+        l.direction[0],
+        l.direction[1],
+        l.direction[2],
+        (cov[2][2] + cov[3][3]).sqrt().atan().to_degrees(),
+        l.angle_to_optical_axis().to_degrees()
+    );
+    s += &format!(
+        "made      {}{}, target {}, method {}\n",
+        utc_time::format_iso(c.made_utc_s),
+        c.water_depth_m.map_or(String::new(), |w| format!(" at {w:.1} m water depth")),
+        c.target.unwrap_or("-"),
+        c.method.name()
+    );
+    if let Some(r) = c.depth_range_m {
+        s += &format!("dots      {:.2}-{:.2} m deep\n", r[0], r[1]);
+    }
+    if let Some(q) = c.fit {
+        s += &format!(
+            "fit       RMS {:.2} px ({:.2} mm), worst {:.2} px ({:.2} mm); {} of {} photos used, outliers {} of {}; span {:.2} m\n",
+            q.residual_rms_px,
+            q.residual_rms_mm,
+            q.residual_worst_px,
+            q.residual_worst_mm,
+            q.photos_used,
+            q.photos_total,
+            q.outliers,
+            q.photos_used + q.outliers,
+            q.span_m
+        );
+    }
+    let verdict = match f.check_signature() {
+        Ok(()) => "valid (whether the signer is trusted: `fslcal verify --trust`)".to_string(),
+        Err(e) => format!("INVALID: {e}"),
+    };
+    s += &format!("signer    {} (public key {})\nsignature {verdict}\n", f.key_id(), hex(&f.signer));
+    s
+}
+
+pub fn run(args: InspectArgs) -> anyhow::Result<ExitCode> {
+    let bytes = unit_files::read_bytes(&args.file)?;
+    let file = decode(&args.file, &bytes)?;
+    if args.json {
+        println!("{}", serde_json::to_string_pretty(&unit_file_json(&args.file, bytes.len(), &file))?);
+    } else {
+        print!("{}", summary(&args.file, bytes.len(), &file));
+    }
+    Ok(ExitCode::SUCCESS)
+}

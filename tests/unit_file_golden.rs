@@ -1,0 +1,49 @@
+//! The worked example in `docs/calib-format.md` is the format: this test rebuilds the example
+//! file (fixed contents, fixed key, fixed time) and compares it with the spec's annotated hex
+//! dump byte for byte, and checks that the dump's offsets and lengths add up.
+
+use fslcal_core::unit_file::{self, SignedUnitFile, EXAMPLE_SECRET_KEY, MAX_FILE_BYTES};
+
+const SPEC: &str = include_str!("../docs/calib-format.md");
+
+/// The bytes of the spec's ```hexdump block. Each line is `OFFSET  HEX BYTES  [comment]`,
+/// the offset in hex; comments are separated from the bytes by two or more spaces.
+fn spec_bytes() -> Vec<u8> {
+    let start = SPEC.find("```hexdump\n").expect("the spec has a ```hexdump block") + "```hexdump\n".len();
+    let end = start + SPEC[start..].find("```").expect("the hexdump block ends");
+    let mut bytes = Vec::new();
+    for line in SPEC[start..end].lines().filter(|l| !l.trim().is_empty()) {
+        let (offset, rest) = line.split_once("  ").unwrap_or_else(|| panic!("no offset in `{line}`"));
+        let offset = usize::from_str_radix(offset.trim(), 16).unwrap_or_else(|_| panic!("bad offset in `{line}`"));
+        assert_eq!(offset, bytes.len(), "offset of `{line}` does not follow on");
+        let hex = rest.split("  ").next().unwrap();
+        for b in hex.split_whitespace() {
+            bytes.push(u8::from_str_radix(b, 16).unwrap_or_else(|_| panic!("bad byte `{b}` in `{line}`")));
+        }
+    }
+    bytes
+}
+
+fn example_file() -> Vec<u8> {
+    let mut buf = [0u8; MAX_FILE_BYTES];
+    let n = unit_file::example().sign(&EXAMPLE_SECRET_KEY, &mut buf).unwrap();
+    buf[..n].to_vec()
+}
+
+#[test]
+fn the_spec_hex_dump_is_what_the_code_writes() {
+    let ours = example_file();
+    let hex: Vec<String> = ours.iter().map(|b| format!("{b:02x}")).collect();
+    assert_eq!(spec_bytes(), ours, "the code writes (update the spec only with a version bump):\n{}", hex.join(" "));
+}
+
+#[test]
+fn the_spec_example_decodes_to_the_example() {
+    let bytes = spec_bytes();
+    let f = unit_file::verify(&bytes, &[unit_file::public_key(&EXAMPLE_SECRET_KEY)]).unwrap();
+    assert_eq!(f.contents, unit_file::example());
+    assert_eq!(f.version, 1);
+    assert_eq!(f.key_id().to_string(), SignedUnitFile::decode(&bytes).unwrap().key_id().to_string());
+    // The size the spec states.
+    assert!(SPEC.contains(&format!("{} bytes", bytes.len())), "the spec should state the example's size");
+}
