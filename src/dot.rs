@@ -97,6 +97,15 @@ impl Default for DotDetectorParams {
     }
 }
 
+impl DotDetectorParams {
+    /// The same detector made more sensitive, for a second look where a dot is expected (a
+    /// small region, or a narrow band around the laser's image): far, faint dots in murky
+    /// water fall below the first search's threshold.
+    pub fn sensitive(&self) -> DotDetectorParams {
+        DotDetectorParams { threshold_sigma: 3.5, min_excess_levels: 5.0, min_snr: 5.0, ..self.clone() }
+    }
+}
+
 fn point_in_convex_polygon(poly: &[Vec2], p: Vec2) -> bool {
     if poly.len() < 3 {
         return true;

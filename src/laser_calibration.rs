@@ -1,17 +1,18 @@
-//! The laser chain: photos of a checkerboard with the laser dot on it, to a fitted laser line
-//! with its quality gates.
+//! The laser chain: photos of a target (a checkerboard or a taped slate) with the laser dot
+//! on it, to a fitted laser line with its quality gates.
 //!
-//! Per photo (in parallel): find the board at reduced size, refine its corners at full
-//! resolution, solve `T_cam_target`, look for dot candidates only on the physical board's
-//! image, and turn them into a [`DotObservation`]. Then fit. Photos where the first search
+//! Per photo (in parallel): find the target at reduced size, refine it at full resolution,
+//! solve `T_cam_target`, look for dot candidates only on the physical target's image, and
+//! turn them into a [`DotObservation`]. Then fit. Photos where the first search
 //! found nothing usable get a second, more sensitive look near where the first fit says the
 //! dot must be, and the fit is repeated.
 
 use crate::dot::{find_dot_candidates, ChannelOrder, ColourView, DotCandidate, DotDetectorParams, SearchRegion};
 use crate::laser_fit::{self, DotObservation, FitError, Gates, LaserFit, Method};
-use crate::vision::{self, EncodedPhoto, Photo, TargetPose};
+use crate::vision::{self, EncodedPhoto, Photo, SlateModel, TargetPose};
 use calib_targets::Checkerboard;
 use fslcal_core::{CameraModel, LaserLine, Plane, Vec2, Vec3};
+use std::sync::Arc;
 use rayon::prelude::*;
 use serde::Serialize;
 use std::collections::HashMap;
@@ -38,13 +39,15 @@ pub struct PhotoEvidence {
     pub pose: TargetPose,
     /// The physical board's outline in the image (padded), pixels.
     pub board_outline_px: Vec<Vec2>,
-    /// The board's inner corners as refined, row by row, pixels.
+    /// A checkerboard's inner corners as refined, row by row (a slate has none), pixels.
     pub corners_px: Vec<Vec2>,
     /// Dot candidates on the board, best first.
     pub candidates: Vec<DotCandidate>,
     pub dot_source: DotSource,
     /// Reduction factor the board was found at (4 = quarter size).
     pub found_at_factor: u32,
+    /// Feature inliers of a slate's match.
+    pub target_inliers: Option<usize>,
     /// The board's pixels, kept when small, so a second look for the dot needs no second
     /// decode of the whole photo.
     board_pixels: Option<PixelCrop>,
@@ -95,26 +98,15 @@ impl PixelCrop {
 /// Outcome of the per-photo stage: evidence, or the reason the photo cannot be used.
 pub type PhotoResult = Result<PhotoEvidence, String>;
 
-/// Where a photo's board was seen: what the HTML report draws on the thumbnail.
+/// Where a photo's target was seen: what the HTML report draws on the thumbnail.
 #[derive(Clone, Debug)]
 pub struct BoardInImage {
-    /// Inner corners as refined, row by row (OpenCV's order), pixels.
+    /// The physical target's outline from its pose, padded as the dot search is, pixels.
+    pub outline_px: Vec<Vec2>,
+    /// A checkerboard's inner corners as refined (a slate has none), pixels.
     pub corners_px: Vec<Vec2>,
-    /// Inner corners per row.
-    pub inner_cols: usize,
-    /// The board's plane from its pose, camera frame.
+    /// The target's plane from its pose, camera frame.
     pub plane: Plane,
-}
-
-impl BoardInImage {
-    /// The four outermost inner corners, in order around the grid.
-    pub fn grid_outline_px(&self) -> Vec<Vec2> {
-        let (c, n) = (self.inner_cols, self.corners_px.len());
-        if c == 0 || n < c {
-            return Vec::new();
-        }
-        vec![self.corners_px[0], self.corners_px[c - 1], self.corners_px[n - 1], self.corners_px[n - c]]
-    }
 }
 
 /// Per-photo line of the report.
@@ -135,6 +127,8 @@ pub struct PhotoReport {
     /// The board as detected, when it was; kept for the HTML report, not the JSON.
     #[serde(skip)]
     pub board: Option<BoardInImage>,
+    /// Feature inliers of a slate's match (checkerboards: none).
+    pub target_inliers: Option<usize>,
 }
 
 /// One gate a careful lab applies, with its figure.
@@ -174,11 +168,161 @@ pub enum LaserError {
     },
 }
 
+/// A target the chain can find and solve the pose of.
+#[derive(Clone)]
+pub enum Target {
+    Checkerboard(Checkerboard),
+    /// A taped slate with its scan's features, shared between threads.
+    Slate(Arc<SlateModel>),
+}
+
+impl Target {
+    /// The dot detector for this target. A slate's dots are seen closer (0.45 m) than a
+    /// board's, where murky water's forward scatter makes the halo larger than the
+    /// detector's usual limit.
+    pub fn find_dots(&self, img: &ColourView, region: &SearchRegion, params: &DotDetectorParams, max: usize) -> Vec<DotCandidate> {
+        match self {
+            Target::Checkerboard(_) => find_dot_candidates(img, region, params, max),
+            Target::Slate(_) => {
+                let params = DotDetectorParams { max_area_px: params.max_area_px.max(SLATE_MAX_DOT_AREA_PX), ..params.clone() };
+                find_dot_candidates(img, region, &params, max)
+            }
+        }
+    }
+}
+
+/// Largest dot blob on a slate, pixels: a saturated dot at 0.45 m in murky water with its
+/// scattered halo.
+const SLATE_MAX_DOT_AREA_PX: usize = 80_000;
+
+impl From<Checkerboard> for Target {
+    fn from(b: Checkerboard) -> Self {
+        Target::Checkerboard(b)
+    }
+}
+
+impl std::fmt::Debug for Target {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "{self}")
+    }
+}
+
+impl std::fmt::Display for Target {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            Target::Checkerboard(b) => write!(f, "{b}"),
+            Target::Slate(m) => write!(f, "slate:{}", m.slate.definition.display()),
+        }
+    }
+}
+
+/// A target as named on the command line, before a slate's definition is read:
+/// `checkerboard:COLSxROWS@SQUAREmm` or `slate:PATH.toml`.
+#[derive(Clone, Debug, PartialEq)]
+pub enum TargetArg {
+    Checkerboard(Checkerboard),
+    Slate(PathBuf),
+}
+
+impl std::str::FromStr for TargetArg {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Self, String> {
+        match s.trim().split_once(':') {
+            Some(("slate", path)) if !path.trim().is_empty() => Ok(TargetArg::Slate(PathBuf::from(path.trim()))),
+            Some(("slate", _)) => Err("`slate:` needs the slate's definition, e.g. slate:my-slate/slate.toml".into()),
+            _ => s.parse::<Checkerboard>().map(TargetArg::Checkerboard).map_err(|e| format!("{e}, or slate:PATH.toml")),
+        }
+    }
+}
+
+impl TargetArg {
+    /// Reads a slate's definition and its scan's features; a checkerboard needs nothing.
+    pub fn load(&self) -> Result<Target, String> {
+        match self {
+            TargetArg::Checkerboard(b) => Ok(Target::Checkerboard(*b)),
+            TargetArg::Slate(path) => {
+                let slate = calib_targets::Slate::load(path).map_err(|e| e.to_string())?;
+                let model = SlateModel::new(slate, vision::Features::Orb).map_err(|e| e.to_string())?;
+                Ok(Target::Slate(Arc::new(model)))
+            }
+        }
+    }
+}
+
+/// A target found in a photo: its pose, its outline in the image, and the decoded photo.
+pub struct LocatedTarget {
+    pub pose: TargetPose,
+    /// The physical target's outline in the image (padded), pixels.
+    pub outline_px: Vec<Vec2>,
+    pub photo: Photo,
+    /// Reduction factor the target was found at (4 = quarter size).
+    pub found_at_factor: u32,
+    /// Feature inliers of a slate's match (a checkerboard has none).
+    pub inliers: Option<usize>,
+    /// A checkerboard's inner corners as refined, row by row (a slate has none).
+    pub corners_px: Vec<Vec2>,
+}
+
+/// Finds `target` in the photo at `path` and solves its pose. `Ok(Err(reason))` when the
+/// photo cannot be used (the reason omits the file name); `Err` for a photo of the wrong size.
+pub fn locate_target(target: &Target, camera: &CameraModel, path: &Path) -> Result<Result<LocatedTarget, String>, LaserError> {
+    let file = path.display().to_string();
+    let encoded = match EncodedPhoto::read(path) {
+        Ok(e) => e,
+        Err(e) => return Ok(Err(format!("unreadable: {}", strip_path(&e.to_string(), &file)))),
+    };
+    let (w, h) = match encoded.dimensions() {
+        Ok(d) => d,
+        Err(e) => return Ok(Err(format!("unreadable: {}", strip_path(&e.to_string(), &file)))),
+    };
+    if (w, h) != (camera.width_px, camera.height_px) {
+        return Err(LaserError::ImageSize { file, photo_w: w, photo_h: h, camera_w: camera.width_px, camera_h: camera.height_px });
+    }
+    Ok(match target {
+        Target::Checkerboard(board) => locate_board(board, camera, &encoded, &file),
+        Target::Slate(model) => match vision::find_slate(model, &encoded, camera) {
+            Ok(d) => {
+                let outline = target_outline_px(camera, &model.slate.outline_m(), 0.02 * model.slate.width_m.max(model.slate.height_m), &d.pose);
+                Ok(LocatedTarget { pose: d.pose, outline_px: outline, photo: d.photo, found_at_factor: d.found_at_factor, inliers: Some(d.inliers), corners_px: Vec::new() })
+            }
+            Err(e) => Err(strip_path(&e.to_string(), &file)),
+        },
+    })
+}
+
+fn locate_board(board: &Checkerboard, camera: &CameraModel, encoded: &EncodedPhoto, file: &str) -> Result<LocatedTarget, String> {
+    let (cols, rows) = (board.inner_cols, board.inner_rows);
+    let search = match vision::find_checkerboard(encoded, cols, rows) {
+        Ok(Some(s)) => s,
+        Ok(None) => return Err(format!("no {cols}x{rows} checkerboard found (the whole board must be in the frame)")),
+        Err(e) => return Err(strip_path(&e.to_string(), file)),
+    };
+    let photo = encoded.decode_full().map_err(|e| strip_path(&e.to_string(), file))?;
+    let mut corners = search.corners_px;
+    if let Err(e) = vision::refine_corners(&photo, &mut corners, cols, rows) {
+        return Err(format!("corner refinement failed: {}", e.message));
+    }
+    let object: Vec<Vec3> = board.object_points().iter().map(|p| Vec3::new(p[0], p[1], p[2])).collect();
+    let pose = match vision::solve_pose(camera, &object, &corners) {
+        Ok(Some(p)) => p,
+        Ok(None) | Err(_) => return Err("the board's pose could not be solved (check the camera file)".into()),
+    };
+    // A pose whose corners do not reproject is a wrong camera file or a misdetected board.
+    if pose.rms_px > 2.0 {
+        return Err(format!(
+            "the board's corners reproject {:.1} px RMS from their pose (limit 2 px): wrong camera file or a bent board",
+            pose.rms_px
+        ));
+    }
+    let outline = board_outline_px(camera, board, &pose);
+    Ok(LocatedTarget { pose, outline_px: outline, photo, found_at_factor: search.found_at_factor, inliers: None, corners_px: corners })
+}
+
 /// Settings of one run.
 #[derive(Clone, Debug)]
 pub struct LaserJob {
     pub camera: CameraModel,
-    pub board: Checkerboard,
+    pub target: Target,
     pub method: Method,
     pub gates: Gates,
     pub detector: DotDetectorParams,
@@ -220,90 +364,55 @@ impl HandDots {
 
 /// Sub-pixel localisation of a detected dot, 1 sigma in pixels: the blob's size over its
 /// signal-to-noise, floored where JPEG and the model's own limits take over.
-fn detected_sigma_px(c: &DotCandidate) -> f64 {
+pub fn detected_sigma_px(c: &DotCandidate) -> f64 {
     (c.radius_px / c.snr.max(1.0)).clamp(0.1, 1.5)
 }
 
 /// The board's physical outline projected into the image, padded by half a square so a
 /// dot on the board's edge is still searched.
 fn board_outline_px(camera: &CameraModel, board: &Checkerboard, pose: &TargetPose) -> Vec<Vec2> {
-    let s = board.square_m;
-    let outline = board.outline_m();
+    target_outline_px(camera, &board.outline_m(), 0.5 * board.square_m, pose)
+}
+
+/// A target's outline (target frame, metres) projected into the image, each corner pushed
+/// `pad_m` outward from the centre.
+fn target_outline_px(camera: &CameraModel, outline: &[[f64; 3]; 4], pad_m: f64, pose: &TargetPose) -> Vec<Vec2> {
     let centre = outline.iter().fold(Vec3::zeros(), |a, p| a + Vec3::new(p[0], p[1], p[2])) / 4.0;
     outline
         .iter()
         .filter_map(|p| {
             let p = Vec3::new(p[0], p[1], p[2]);
-            let out = p + (p - centre).normalize() * (0.5 * s);
+            let out = p + (p - centre).normalize() * pad_m;
             camera.project(&pose.to_camera(&out))
         })
         .collect()
 }
 
-/// Stage one for one photo: board, pose, dot candidates.
+/// Stage one for one photo: target, pose, dot candidates.
 pub fn examine_photo(job: &LaserJob, path: &Path) -> Result<PhotoResult, LaserError> {
-    let file = path.display().to_string();
-    let encoded = match EncodedPhoto::read(path) {
-        Ok(e) => e,
-        Err(e) => return Ok(Err(format!("unreadable: {}", strip_path(&e.to_string(), &file)))),
+    let located = match locate_target(&job.target, &job.camera, path)? {
+        Ok(l) => l,
+        Err(reason) => return Ok(Err(reason)),
     };
-    let (w, h) = match encoded.dimensions() {
-        Ok(d) => d,
-        Err(e) => return Ok(Err(format!("unreadable: {}", strip_path(&e.to_string(), &file)))),
-    };
-    if (w, h) != (job.camera.width_px, job.camera.height_px) {
-        return Err(LaserError::ImageSize {
-            file,
-            photo_w: w,
-            photo_h: h,
-            camera_w: job.camera.width_px,
-            camera_h: job.camera.height_px,
-        });
-    }
-    let (cols, rows) = (job.board.inner_cols, job.board.inner_rows);
-    let search = match vision::find_checkerboard(&encoded, cols, rows) {
-        Ok(Some(s)) => s,
-        Ok(None) => return Ok(Err(format!("no {cols}x{rows} checkerboard found (the whole board must be in the frame)"))),
-        Err(e) => return Ok(Err(strip_path(&e.to_string(), &file))),
-    };
-    let photo = match encoded.decode_full() {
-        Ok(p) => p,
-        Err(e) => return Ok(Err(strip_path(&e.to_string(), &file))),
-    };
-    let mut corners = search.corners_px;
-    if let Err(e) = vision::refine_corners(&photo, &mut corners, cols, rows) {
-        return Ok(Err(format!("corner refinement failed: {}", e.message)));
-    }
-    let object: Vec<Vec3> = job.board.object_points().iter().map(|p| Vec3::new(p[0], p[1], p[2])).collect();
-    let pose = match vision::solve_pose(&job.camera, &object, &corners) {
-        Ok(Some(p)) => p,
-        Ok(None) | Err(_) => return Ok(Err("the board's pose could not be solved (check the camera file)".into())),
-    };
-    // A pose whose corners do not reproject is a wrong camera file or a misdetected board.
-    if pose.rms_px > 2.0 {
-        return Ok(Err(format!(
-            "the board's corners reproject {:.1} px RMS from their pose (limit 2 px): wrong camera file or a bent board",
-            pose.rms_px
-        )));
-    }
-    let outline = board_outline_px(&job.camera, &job.board, &pose);
+    let LocatedTarget { pose, outline_px: outline, photo, found_at_factor, inliers, corners_px: corners } = located;
     let (candidates, dot_source) = match job.hand_dots.get(path) {
         Some(px) => (vec![hand_candidate(px)], DotSource::Hand),
         None => {
             let region = SearchRegion { polygon: outline.clone(), band: None };
-            (find_dot_candidates(&photo.colour(), &region, &job.detector, 8), DotSource::Detected)
+            (job.target.find_dots(&photo.colour(), &region, &job.detector, 8), DotSource::Detected)
         }
     };
     let board_pixels = PixelCrop::of(&photo.colour(), &outline);
     Ok(Ok(PhotoEvidence {
         board_pixels,
-        image_size: (w, h),
+        image_size: (photo.width(), photo.height()),
         pose,
         board_outline_px: outline,
         corners_px: corners,
         candidates,
         dot_source,
-        found_at_factor: search.found_at_factor,
+        found_at_factor,
+        target_inliers: inliers,
     }))
 }
 
@@ -339,19 +448,13 @@ fn search_near_prediction(job: &LaserJob, path: &Path, evidence: &PhotoEvidence,
             predicted + Vec2::new(a.cos(), a.sin()) * radius / (std::f64::consts::PI / 8.0).cos()
         })
         .collect();
-    let sensitive = DotDetectorParams {
-        threshold_sigma: 3.5,
-        min_excess_levels: 5.0,
-        min_snr: 5.0,
-        background_radius_px: job.detector.background_radius_px,
-        max_area_px: job.detector.max_area_px,
-    };
+    let sensitive = job.detector.sensitive();
     let search = |view: &ColourView, offset: Vec2| {
         let region = SearchRegion {
             polygon: polygon.iter().map(|p| p - offset).collect(),
             band: Some((vec![predicted - offset], radius)),
         };
-        find_dot_candidates(view, &region, &sensitive, 1).into_iter().next().map(|mut c| {
+        job.target.find_dots(view, &region, &sensitive, 1).into_iter().next().map(|mut c| {
             c.pixel += offset;
             c
         })
@@ -432,11 +535,11 @@ pub fn calibrate(job: &LaserJob, photos: &[PathBuf], progress: &(dyn Fn() + Sync
     let fit = match fit {
         Ok(f) => f,
         Err(source) => {
-            let photos = report_photos(job, photos, &results, None);
+            let photos = report_photos(photos, &results, None);
             return Err(LaserError::Fit { source, photos });
         }
     };
-    let photo_reports = report_photos(job, photos, &results, Some(&fit));
+    let photo_reports = report_photos(photos, &results, Some(&fit));
     let present = fit.photos.iter().flatten().count();
     let outliers = (present - fit.used, present);
     let gates = gate(job, &fit, outliers);
@@ -481,7 +584,7 @@ fn gate(job: &LaserJob, fit: &LaserFit, outliers: (usize, usize)) -> Vec<GateRes
     ]
 }
 
-fn report_photos(job: &LaserJob, paths: &[PathBuf], results: &[PhotoResult], fit: Option<&LaserFit>) -> Vec<PhotoReport> {
+fn report_photos(paths: &[PathBuf], results: &[PhotoResult], fit: Option<&LaserFit>) -> Vec<PhotoReport> {
     paths
         .iter()
         .zip(results)
@@ -498,6 +601,7 @@ fn report_photos(job: &LaserJob, paths: &[PathBuf], results: &[PhotoResult], fit
                 residual_px: None,
                 board_rms_px: None,
                 board: None,
+                target_inliers: None,
             };
             let e = match r {
                 Err(reason) => return skipped(reason.clone()),
@@ -506,13 +610,14 @@ fn report_photos(job: &LaserJob, paths: &[PathBuf], results: &[PhotoResult], fit
             let mut rep = skipped(String::new());
             rep.board_rms_px = Some(e.pose.rms_px);
             rep.board = Some(BoardInImage {
+                outline_px: e.board_outline_px.clone(),
                 corners_px: e.corners_px.clone(),
-                inner_cols: job.board.inner_cols as usize,
                 plane: e.pose.plane(),
             });
+            rep.target_inliers = e.target_inliers;
             let Some(pf) = fit.and_then(|f| f.photos[i].as_ref()) else {
                 rep.reason = Some(match (e.candidates.is_empty(), fit) {
-                    (true, _) => "no laser dot found on the board".to_string(),
+                    (true, _) => "no laser dot found on the target".to_string(),
                     (false, None) => "not fitted (the fit was refused)".to_string(),
                     (false, Some(_)) => "no usable dot".to_string(),
                 });

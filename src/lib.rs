@@ -15,6 +15,7 @@ pub mod cli;
 pub mod dot;
 pub mod fishsense_pkg;
 pub mod keys;
+pub mod dot_on_line;
 #[cfg(feature = "vision")]
 pub mod laser_calibration;
 pub mod laser_fit;
@@ -22,6 +23,10 @@ pub mod report;
 pub mod unit_files;
 pub mod unit_registry;
 pub mod utc_time;
+#[cfg(feature = "vision")]
+pub mod validation;
+#[cfg(feature = "vision")]
+pub mod drift_check;
 #[cfg(feature = "vision")]
 pub mod vision;
 

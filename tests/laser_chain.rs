@@ -27,7 +27,7 @@ fn job(set: &SceneSet, method: Method) -> LaserJob {
     let (camera, _) = camera_file::read(&set.camera_file).expect("camera file");
     LaserJob {
         camera,
-        board: Checkerboard::fishsense(),
+        target: Checkerboard::fishsense().into(),
         method,
         gates: Gates::default(),
         detector: DotDetectorParams::default(),

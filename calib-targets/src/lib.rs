@@ -13,7 +13,9 @@ mod output;
 mod random;
 pub mod rig;
 pub mod scene;
+pub mod slate;
 mod target;
 
 pub use output::{camera_yaml, write_camera_yaml, write_scene, JPEG_QUALITY};
+pub use slate::{KnownLength, Slate, SlateError};
 pub use target::{Checkerboard, TargetParseError, MARGIN_SQUARES};

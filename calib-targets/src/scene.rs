@@ -229,44 +229,110 @@ const LASER_COLOUR: [f64; 3] = [0.30, 1.0, 0.40];
 /// A black square returns this share of what a white one returns of the laser.
 const LASER_ON_BLACK: f64 = 0.3;
 
-/// Board surface under a camera-frame ray: `Some(reflectance)` on the board, `None` off it.
-struct BoardShader {
-    board: Checkerboard,
+/// A slate's scan as the renderer samples it: linear albedo per scan pixel, and the physical
+/// size the scan covers.
+#[derive(Clone, Debug, PartialEq)]
+pub struct SlateTexture {
+    pub width_m: f64,
+    pub height_m: f64,
+    cols: usize,
+    rows: usize,
+    albedo: Vec<[f32; 3]>,
+}
+
+impl SlateTexture {
+    /// The scan taken as albedo (8-bit level / 255) over `width_m x height_m`.
+    pub fn new(scan: &RgbImage, width_m: f64, height_m: f64) -> SlateTexture {
+        let albedo = scan.pixels().map(|p| p.0.map(|c| c as f32 / 255.0)).collect();
+        SlateTexture { width_m, height_m, cols: scan.width() as usize, rows: scan.height() as usize, albedo }
+    }
+
+    pub fn from_slate(slate: &crate::Slate) -> Result<SlateTexture, crate::SlateError> {
+        Ok(SlateTexture::new(&slate.read_scan()?, slate.width_m, slate.height_m))
+    }
+
+    pub fn outline_m(&self) -> [[f64; 3]; 4] {
+        let (w, h) = (self.width_m, self.height_m);
+        [[0.0, 0.0, 0.0], [w, 0.0, 0.0], [w, h, 0.0], [0.0, h, 0.0]]
+    }
+
+    /// Bilinear albedo at a target-frame point, `None` off the slate.
+    fn albedo_at(&self, q: &Vec3) -> Option<[f64; 3]> {
+        if q.x < 0.0 || q.y < 0.0 || q.x > self.width_m || q.y > self.height_m {
+            return None;
+        }
+        // Scan pixel centres sit at (i + 0.5) * size / count.
+        let gx = (q.x / self.width_m * self.cols as f64 - 0.5).clamp(0.0, (self.cols - 1) as f64);
+        let gy = (q.y / self.height_m * self.rows as f64 - 0.5).clamp(0.0, (self.rows - 1) as f64);
+        let (ix, iy) = ((gx as usize).min(self.cols - 2), (gy as usize).min(self.rows - 2));
+        let (fx, fy) = ((gx - ix as f64) as f32, (gy - iy as f64) as f32);
+        let i = iy * self.cols + ix;
+        let (a, b, c, d) = (self.albedo[i], self.albedo[i + 1], self.albedo[i + self.cols], self.albedo[i + self.cols + 1]);
+        Some([0, 1, 2].map(|k| {
+            let top = a[k] + (b[k] - a[k]) * fx;
+            let bottom = c[k] + (d[k] - c[k]) * fx;
+            (top + (bottom - top) * fy) as f64
+        }))
+    }
+}
+
+/// What is printed or stuck on the target.
+#[derive(Clone, Copy)]
+enum Surface<'a> {
+    Board(Checkerboard),
+    Slate(&'a SlateTexture),
+}
+
+impl Surface<'_> {
+    /// Albedo at a target-frame point, `None` off the target.
+    fn albedo_at(&self, q: &Vec3) -> Option<[f64; 3]> {
+        match self {
+            Surface::Board(board) => {
+                let o = board.outline_m();
+                if q.x < o[0][0] || q.x > o[2][0] || q.y < o[0][1] || q.y > o[2][1] {
+                    return None;
+                }
+                let s = board.square_m;
+                let i = (q.x / s).floor() as i64 + 1;
+                let j = (q.y / s).floor() as i64 + 1;
+                let on_squares = (0..=board.inner_cols as i64).contains(&i) && (0..=board.inner_rows as i64).contains(&j);
+                Some([if on_squares && Checkerboard::square_colour_is_black(i, j) { BLACK } else { WHITE }; 3])
+            }
+            Surface::Slate(t) => t.albedo_at(q),
+        }
+    }
+
+    /// Share of the laser a white square would return that this albedo returns.
+    fn laser_return(&self, albedo: [f64; 3]) -> f64 {
+        match self {
+            Surface::Board(_) => if albedo[1] == BLACK { LASER_ON_BLACK } else { 1.0 },
+            Surface::Slate(_) => (albedo[1] / WHITE).clamp(LASER_ON_BLACK, 1.0),
+        }
+    }
+}
+
+/// The target's surface under a camera-frame ray: `Some(albedo)` on the target, `None` off it.
+struct TargetShader<'a> {
+    surface: Surface<'a>,
     pose: Pose,
     normal: Vec3,
     normal_dot_t: f64,
-    outline: (f64, f64, f64, f64),
 }
 
-impl BoardShader {
-    fn new(board: Checkerboard, pose: Pose) -> BoardShader {
+impl<'a> TargetShader<'a> {
+    fn new(surface: Surface<'a>, pose: Pose) -> TargetShader<'a> {
         let normal = pose.normal();
-        let o = board.outline_m();
-        BoardShader {
-            board,
-            pose,
-            normal,
-            normal_dot_t: normal.dot(&Vec3::from(pose.translation_m)),
-            outline: (o[0][0], o[0][1], o[2][0], o[2][1]),
-        }
+        TargetShader { surface, pose, normal, normal_dot_t: normal.dot(&Vec3::from(pose.translation_m)) }
     }
 
-    /// Reflectance at a target-frame point on the board, `None` outside the board.
-    fn reflectance_at(&self, q: &Vec3) -> Option<f64> {
-        let (x0, y0, x1, y1) = self.outline;
-        if q.x < x0 || q.x > x1 || q.y < y0 || q.y > y1 {
-            return None;
-        }
-        let s = self.board.square_m;
-        let i = (q.x / s).floor() as i64 + 1;
-        let j = (q.y / s).floor() as i64 + 1;
-        let on_squares = (0..=self.board.inner_cols as i64).contains(&i) && (0..=self.board.inner_rows as i64).contains(&j);
-        Some(if on_squares && Checkerboard::square_colour_is_black(i, j) { BLACK } else { WHITE })
+    /// Albedo at a target-frame point, `None` outside the target.
+    fn albedo_at(&self, q: &Vec3) -> Option<[f64; 3]> {
+        self.surface.albedo_at(q)
     }
 
-    /// Reflectance and range along the ray through normalised coordinates `n`.
+    /// Albedo and range along the ray through normalised coordinates `n`.
     #[inline]
-    fn shade(&self, n: [f64; 2]) -> Option<(f64, f64)> {
+    fn shade(&self, n: [f64; 2]) -> Option<([f64; 3], f64)> {
         let ray = Vec3::new(n[0], n[1], 1.0);
         let denom = self.normal.dot(&ray);
         if denom.abs() < 1e-12 {
@@ -277,13 +343,13 @@ impl BoardShader {
             return None;
         }
         let p = ray * t;
-        let refl = self.reflectance_at(&self.pose.to_target(&p))?;
-        Some((refl, p.norm()))
+        let albedo = self.albedo_at(&self.pose.to_target(&p))?;
+        Some((albedo, p.norm()))
     }
 }
 
-/// Smooth value noise for the background, in [0, 1].
-fn value_noise(seed: u64, u: f64, v: f64, cell: f64) -> f64 {
+/// Smooth value noise in [0, 1] on a grid of `cell` units (the background, the slate's scan).
+pub(crate) fn value_noise(seed: u64, u: f64, v: f64, cell: f64) -> f64 {
     let (gx, gy) = (u / cell, v / cell);
     let (ix, iy) = (gx.floor() as i64, gy.floor() as i64);
     let (fx, fy) = (gx - ix as f64, gy - iy as f64);
@@ -375,11 +441,73 @@ fn blur(img: &mut Vec<[f32; 3]>, width: usize, height: usize, sigma: f64) {
 
 /// Renders one photo and its truth.
 pub fn render(spec: &SceneSpec) -> RenderedScene {
+    let setup = Setup {
+        camera: spec.camera,
+        laser: spec.laser,
+        target: spec.board.map(|(b, p)| (Surface::Board(b), p)),
+        water: spec.water,
+        glints: spec.glints,
+        impostor: spec.impostor,
+        seed: spec.seed,
+    };
+    let mut scene = render_setup(&setup);
+    scene.truth.board = spec.board.map(|(b, _)| b);
+    scene.truth.corners_px = spec
+        .board
+        .map(|(b, pose)| {
+            b.object_points()
+                .iter()
+                .filter_map(|p| spec.camera.project(&pose.apply(&Vec3::from(*p))))
+                .map(|p| [p.x, p.y])
+                .collect()
+        })
+        .unwrap_or_default();
+    scene
+}
+
+/// One photo of a taped dive slate.
+#[derive(Clone, Debug)]
+pub struct SlateSpec {
+    pub camera: CameraModel,
+    pub laser: Option<LaserLine>,
+    /// `T_cam_target` of the slate (target frame: docs/slate.md).
+    pub pose: Pose,
+    pub water: Water,
+    pub glints: u32,
+    pub impostor: bool,
+    pub seed: u64,
+}
+
+/// Renders a photo of `slate` and its truth (`board` and `corners_px` empty).
+pub fn render_slate(slate: &SlateTexture, spec: &SlateSpec) -> RenderedScene {
+    render_setup(&Setup {
+        camera: spec.camera,
+        laser: spec.laser,
+        target: Some((Surface::Slate(slate), spec.pose)),
+        water: spec.water,
+        glints: spec.glints,
+        impostor: spec.impostor,
+        seed: spec.seed,
+    })
+}
+
+/// What decides a photo, whatever the target.
+struct Setup<'a> {
+    camera: CameraModel,
+    laser: Option<LaserLine>,
+    target: Option<(Surface<'a>, Pose)>,
+    water: Water,
+    glints: u32,
+    impostor: bool,
+    seed: u64,
+}
+
+fn render_setup(spec: &Setup) -> RenderedScene {
     let cam = &spec.camera;
     let (w, h) = (cam.width_px as usize, cam.height_px as usize);
     let optics = spec.water.optics();
     let grid = RayGrid::new(cam, 8);
-    let shader = spec.board.map(|(b, p)| BoardShader::new(b, p));
+    let shader = spec.target.map(|(s, p)| TargetShader::new(s, p));
     let bg_seed = spec.seed ^ 0xB6;
 
     // Supersampled board and background, through the water.
@@ -405,7 +533,7 @@ pub fn render(spec: &SceneSpec) -> RenderedScene {
                 for dy in SUB {
                     for dx in SUB {
                         let c = match shader.shade(grid.normalised(u + dx, v + dy)) {
-                            Some((refl, range)) => through_water(optics, [refl; 3], range),
+                            Some((albedo, range)) => through_water(optics, albedo, range),
                             None => *bg.get_or_insert_with(background),
                         };
                         for k in 0..3 {
@@ -425,16 +553,17 @@ pub fn render(spec: &SceneSpec) -> RenderedScene {
     if let (Some(laser), Some(shader)) = (&spec.laser, &shader) {
         if let Some(hit) = laser.hit(&shader.pose.plane()) {
             let q = shader.pose.to_target(&hit);
-            if let (Some(refl), Some(px)) = (shader.reflectance_at(&q), cam.project(&hit)) {
+            if let (Some(albedo), Some(px)) = (shader.albedo_at(&q), cam.project(&hit)) {
                 if hit.z > 0.0 && cam.contains(px) {
                     let range = (hit - laser.origin()).norm();
                     let back = hit.norm();
                     let diameter = BEAM_DIAMETER_M + BEAM_DIVERGENCE_RAD * range;
-                    let on_black = refl == BLACK;
+                    let laser_return = shader.surface.laser_return(albedo);
+                    let on_black = laser_return < 0.5;
                     let spread = (BEAM_DIAMETER_M / diameter).powi(2);
                     let g = optics.attenuation_per_m[1];
                     let radiance = LASER_RADIANCE
-                        * if on_black { LASER_ON_BLACK } else { 1.0 }
+                        * laser_return
                         * spread
                         * (-g * (range + back)).exp();
                     let radius_px = 0.5 * diameter * cam.fx_px / hit.z;
@@ -499,29 +628,19 @@ pub fn render(spec: &SceneSpec) -> RenderedScene {
         .collect();
     let image = RgbImage::from_raw(w as u32, h as u32, bytes).expect("buffer matches the image size");
 
-    let corners_px = spec
-        .board
-        .map(|(b, pose)| {
-            b.object_points()
-                .iter()
-                .filter_map(|p| cam.project(&pose.apply(&Vec3::from(*p))))
-                .map(|p| [p.x, p.y])
-                .collect()
-        })
-        .unwrap_or_default();
     RenderedScene {
         image,
         truth: SceneTruth {
             camera: *cam,
             laser: spec.laser,
-            board: spec.board.map(|(b, _)| b),
-            t_cam_target: spec.board.map(|(_, p)| p),
+            board: None,
+            t_cam_target: spec.target.map(|(_, p)| p),
             water: spec.water,
             seed: spec.seed,
             dot,
             glints,
             impostor,
-            corners_px,
+            corners_px: Vec::new(),
         },
     }
 }
@@ -546,8 +665,7 @@ fn random_rotation(rng: &mut SplitMix, tilt_deg: f64, inplane_deg: f64) -> nalge
 
 /// Whether the whole physical board (sampled along its edges) is in the image, at least
 /// `margin_px` from the border.
-fn board_in_frame(camera: &CameraModel, board: &Checkerboard, pose: &Pose, margin_px: f64) -> bool {
-    let o = board.outline_m();
+fn target_in_frame(camera: &CameraModel, o: &[[f64; 3]; 4], pose: &Pose, margin_px: f64) -> bool {
     (0..4).all(|k| {
         let (a, b) = (Vec3::from(o[k]), Vec3::from(o[(k + 1) % 4]));
         (0..=8).all(|i| {
@@ -570,7 +688,7 @@ fn board_in_frame(camera: &CameraModel, board: &Checkerboard, pose: &Pose, margi
 fn search_pose(
     rng: &mut SplitMix,
     camera: &CameraModel,
-    board: &Checkerboard,
+    outline_m: &[[f64; 3]; 4],
     margin_px: f64,
     mut place: impl FnMut(&mut SplitMix, f64, &nalgebra::Matrix3<f64>) -> Option<Vec3>,
     fallback_m: Vec3,
@@ -581,7 +699,7 @@ fn search_pose(
         let r = random_rotation(rng, 35.0 * ease, 15.0 * ease);
         let Some(t) = place(rng, ease, &r) else { continue };
         let pose = Pose { rotation: to_rows(&r), translation_m: [t.x, t.y, t.z] };
-        if board_in_frame(camera, board, &pose, margin_px) {
+        if target_in_frame(camera, outline_m, &pose, margin_px) {
             return pose;
         }
     }
@@ -618,7 +736,7 @@ pub fn laser_scene_set(count: usize, seed: u64, water: Water, glints: u32) -> Ve
                 Some(hit - r * on_board)
             };
             // Last resort: face-on with the dot wherever the board's centre puts it.
-            let pose = search_pose(&mut rng, &camera, &board, 30.0, place, hit - centre);
+            let pose = search_pose(&mut rng, &camera, &board.outline_m(), 30.0, place, hit - centre);
             SceneSpec {
                 camera,
                 laser: Some(laser),
@@ -627,6 +745,42 @@ pub fn laser_scene_set(count: usize, seed: u64, water: Water, glints: u32) -> Ve
                 glints,
                 impostor: glints > 0 && i % 4 == 1,
                 seed: seed.wrapping_mul(1000).wrapping_add(i as u64),
+            }
+        })
+        .collect()
+}
+
+/// Photos of a taped slate with the laser dot on it, as a diver takes them for the laser or
+/// to validate: from `depths_m.0` to `depths_m.1` (evenly spread, jittered), tilted up to
+/// 35 degrees, turned up to 15 degrees in its plane, the dot at a random spot on the slate
+/// away from its edges, the whole slate in the frame. With glints, about one photo in four
+/// also has a green reflection of the laser elsewhere.
+pub fn slate_scene_set(slate: &SlateTexture, laser: LaserLine, depths_m: (f64, f64), count: usize, seed: u64, water: Water, glints: u32) -> Vec<SlateSpec> {
+    let camera = crate::rig::tg6_camera();
+    let outline = slate.outline_m();
+    let centre = Vec3::new(0.5 * slate.width_m, 0.5 * slate.height_m, 0.0);
+    (0..count)
+        .map(|i| {
+            let mut rng = SplitMix::derive(seed ^ 0x51A7E, i as u64);
+            let t = if count > 1 { i as f64 / (count - 1) as f64 } else { 0.5 };
+            let span = depths_m.1 - depths_m.0;
+            let depth = (depths_m.0 + span * t + rng.range(-0.02, 0.02) * span).clamp(depths_m.0, depths_m.1);
+            let hit = laser.point_at_depth(depth);
+            let place = |rng: &mut SplitMix, ease: f64, r: &nalgebra::Matrix3<f64>| {
+                // Up close the slate only just fits: aim the dot nearer its middle as tries fail.
+                let k = 0.15 + 0.35 * (1.0 - ease);
+                let on_slate = Vec3::new(rng.range(k, 1.0 - k) * slate.width_m, rng.range(k, 1.0 - k) * slate.height_m, 0.0);
+                Some(hit - r * on_slate)
+            };
+            let pose = search_pose(&mut rng, &camera, &outline, 30.0, place, hit - centre);
+            SlateSpec {
+                camera,
+                laser: Some(laser),
+                pose,
+                water,
+                glints,
+                impostor: glints > 0 && i % 4 == 1,
+                seed: seed.wrapping_mul(1000).wrapping_add(700 + i as u64),
             }
         })
         .collect()
@@ -654,7 +808,7 @@ pub fn camera_scene_set(count: usize, seed: u64, water: Water) -> Vec<SceneSpec>
                 let depth = depth.max(0.5 + 0.6 * (1.0 - ease));
                 Some(Vec3::new(n.x, n.y, 1.0) * depth - r * centre)
             };
-            let pose = search_pose(&mut rng, &camera, &board, 10.0, place, Vec3::new(0.0, 0.0, 1.2) - centre);
+            let pose = search_pose(&mut rng, &camera, &board.outline_m(), 10.0, place, Vec3::new(0.0, 0.0, 1.2) - centre);
             SceneSpec { camera, laser: None, board: Some((board, pose)), water, glints: 0, impostor: false, seed: seed.wrapping_mul(1000).wrapping_add(500 + i as u64) }
         })
         .collect()
@@ -764,18 +918,18 @@ mod tests {
         let mut black = 0;
         for (i, s) in specs.iter().enumerate() {
             let (b, pose) = s.board.unwrap();
-            assert!(board_in_frame(&cam, &b, &pose, 29.0), "photo {i}: board leaves the frame");
+            assert!(target_in_frame(&cam, &b.outline_m(), &pose, 29.0), "photo {i}: board leaves the frame");
             let hit = s.laser.unwrap().hit(&pose.plane()).unwrap();
             let q = pose.to_target(&hit);
-            let sh = BoardShader::new(b, pose);
-            let refl = sh.reflectance_at(&q).unwrap_or_else(|| panic!("photo {i}: the dot misses the board"));
-            black += (refl == BLACK) as usize;
+            let sh = TargetShader::new(Surface::Board(b), pose);
+            let albedo = sh.albedo_at(&q).unwrap_or_else(|| panic!("photo {i}: the dot misses the board"));
+            black += (albedo[1] == BLACK) as usize;
         }
         assert!((0.6..=4.5).contains(&specs[0].laser.unwrap().hit(&specs[0].board.unwrap().1.plane()).unwrap().z));
         assert!((2..=10).contains(&black), "{black} of 16 dots on black squares");
         for s in camera_scene_set(12, 4, Water::Clear) {
             let (b, pose) = s.board.unwrap();
-            assert!(board_in_frame(&cam, &b, &pose, 9.0));
+            assert!(target_in_frame(&cam, &b.outline_m(), &pose, 9.0));
         }
     }
 }

@@ -6,11 +6,10 @@ use crate::atomic_file::write_atomically;
 use crate::{keys, utc_time};
 use fslcal_core::unit_file::{CameraIdentity, FitMethod, FitQuality, UnitFile};
 use crate::dot::DotDetectorParams;
-use crate::laser_calibration::{calibrate, HandDots, LaserCalibration, LaserError, LaserJob, PhotoReport};
+use crate::laser_calibration::{calibrate, HandDots, LaserCalibration, LaserError, LaserJob, PhotoReport, TargetArg};
 use crate::laser_fit::{Gates, Method};
 use crate::report::{self, laser::{LaserOutcome, LaserReport}};
 use anyhow::{bail, Context};
-use calib_targets::Checkerboard;
 use crate::calibration::camera_json;
 use fslcal_core::{CameraModel, Vec2};
 use serde_json::json;
@@ -29,10 +28,11 @@ pub struct LaserArgs {
     camera: PathBuf,
 
     /// The target in the photos: `checkerboard:COLSxROWS@SQUAREmm` with inner corners, e.g.
-    /// `checkerboard:14x10@42.17mm`. Measure the square with calipers over many squares: the
+    /// `checkerboard:14x10@42.17mm`, or `slate:PATH.toml`, a taped dive slate defined by its
+    /// scan (docs/slate.md). Measure the square with calipers over many squares: the
     /// FishSense board's nominal 41.3 mm is really 42.17 mm, a silent 2% scale error.
-    #[arg(long, value_name = "TARGET", value_parser = parse_target)]
-    target: Checkerboard,
+    #[arg(long, value_name = "TARGET")]
+    target: TargetArg,
 
     /// Fitting method. `reprojection` weighs each dot by what its pixel tells and drops
     /// outlier photos; the thesis's `gauss-newton` and `average` use every dot as given.
@@ -77,10 +77,6 @@ pub struct LaserArgs {
     /// Calibration photos (JPEG or PNG).
     #[arg(required = true, value_name = "PHOTOS")]
     photos: Vec<PathBuf>,
-}
-
-fn parse_target(s: &str) -> Result<Checkerboard, String> {
-    s.parse::<Checkerboard>().map_err(|e| e.to_string())
 }
 
 fn parse_range_mm(s: &str) -> Result<(f64, f64), String> {
@@ -145,7 +141,7 @@ pub fn run(args: LaserArgs) -> anyhow::Result<ExitCode> {
     }
     let job = LaserJob {
         camera,
-        board: args.target,
+        target: args.target.load().map_err(anyhow::Error::msg)?,
         method: args.method,
         gates: Gates { baseline_range_m: args.baseline_range_mm, max_dot_offset_px: args.max_dot_offset_px, ..Gates::default() },
         detector: DotDetectorParams::default(),
@@ -166,11 +162,11 @@ pub fn run(args: LaserArgs) -> anyhow::Result<ExitCode> {
         }
         Err(e) => return Err(e.into()),
     };
-    let report = json_report(&args, &job.camera, &cal);
+    let report = json_report(&args, &job, &cal);
     if args.json {
         println!("{}", serde_json::to_string_pretty(&report)?);
     } else {
-        print!("{}", summary(&args, &cal));
+        print!("{}", summary(&args, &job, &cal));
     }
     write_report(&args, &job, LaserOutcome::Fitted(&cal))?;
     if !cal.accepted() {
@@ -180,7 +176,7 @@ pub fn run(args: LaserArgs) -> anyhow::Result<ExitCode> {
         bail!("laser calibration rejected: {}{note}", failed.join(", "));
     }
     if let Some(out) = signed_out {
-        let size = signing::sign_unit_file(out, &args.signing, prior.as_ref(), unit_contents(&args.target.to_string(), &camera, &cal))?;
+        let size = signing::sign_unit_file(out, &args.signing, prior.as_ref(), unit_contents(&job.target.to_string(), &camera, &cal))?;
         if !args.json {
             println!("wrote {} (signed, {size} bytes)", out.display());
         }
@@ -206,7 +202,8 @@ fn write_report(args: &LaserArgs, job: &LaserJob, outcome: LaserOutcome) -> anyh
     Ok(())
 }
 
-fn json_report(args: &LaserArgs, camera: &CameraModel, cal: &LaserCalibration) -> serde_json::Value {
+fn json_report(args: &LaserArgs, job: &LaserJob, cal: &LaserCalibration) -> serde_json::Value {
+    let camera = &job.camera;
     let f = &cal.fit;
     let sigma: serde_json::Map<String, serde_json::Value> =
         f.distance_sigma_m.iter().map(|(z, s)| (format!("{z}"), json!(s))).collect();
@@ -214,7 +211,7 @@ fn json_report(args: &LaserArgs, camera: &CameraModel, cal: &LaserCalibration) -
         "camera_file": args.camera.display().to_string(),
         // The intrinsics themselves, so that the result alone is a usable `--cal`.
         "camera": camera_json(camera),
-        "target": args.target.to_string(),
+        "target": job.target.to_string(),
         "method": f.method,
         "laser": {
             "origin_m": f.laser.origin_m,
@@ -294,14 +291,14 @@ fn photo_table(photos: &[PhotoReport]) -> String {
     s
 }
 
-fn summary(args: &LaserArgs, cal: &LaserCalibration) -> String {
+fn summary(args: &LaserArgs, job: &LaserJob, cal: &LaserCalibration) -> String {
     let f = &cal.fit;
     let l = &f.laser;
     let used = cal.photos.iter().filter(|p| p.status == "used").count();
     let mut s = format!(
         "fslcal laser: {} photos, target {}, camera {}, method {}\n\n",
         cal.photos.len(),
-        args.target,
+        job.target,
         args.camera.display(),
         serde_json::to_value(f.method).ok().and_then(|v| v.as_str().map(String::from)).unwrap_or_default(),
     );

@@ -8,7 +8,11 @@ mod keygen;
 #[cfg(feature = "vision")]
 mod camera;
 #[cfg(feature = "vision")]
+mod check;
+#[cfg(feature = "vision")]
 mod laser;
+#[cfg(feature = "vision")]
+mod validate;
 mod progress;
 mod signing;
 mod units;
@@ -38,6 +42,10 @@ enum Command {
     Units(units::UnitsArgs),
     Import(import::ImportArgs),
     Export(export::ExportArgs),
+    #[cfg(feature = "vision")]
+    Validate(validate::ValidateArgs),
+    #[cfg(feature = "vision")]
+    Check(check::CheckArgs),
 }
 
 /// Parses the command line and runs the subcommand.
@@ -54,5 +62,9 @@ pub fn run() -> anyhow::Result<ExitCode> {
         Command::Units(args) => units::run(args),
         Command::Import(args) => import::run(args),
         Command::Export(args) => export::run(args),
+        #[cfg(feature = "vision")]
+        Command::Validate(args) => validate::run(args),
+        #[cfg(feature = "vision")]
+        Command::Check(args) => check::run(args),
     }
 }

@@ -166,7 +166,7 @@ fn error_chart(cal: &LaserCalibration, camera: &CameraModel, points: &[PhotoPoin
 fn overlay(report: &PhotoReport, camera: &CameraModel, laser: Option<&LaserLine>) -> Overlay {
     let mut o = Overlay::default();
     if let Some(b) = &report.board {
-        o.outlines_px.push(b.grid_outline_px());
+        o.outlines_px.push(b.outline_px.clone());
         o.marks_px = b.corners_px.clone();
         o.predicted_px = laser.and_then(|l| camera.project(&l.hit(&b.plane)?));
     }
@@ -196,7 +196,7 @@ pub fn write(dir: &Path, report: &LaserReport) -> Result<PathBuf, ReportError> {
         "{} photos ({used} used, {} skipped); target {}; camera file {}.",
         photos.len(),
         photos.len() - used,
-        job.board,
+        job.target,
         report.camera_file.display(),
     ));
 

@@ -4,10 +4,12 @@
 mod board;
 mod intrinsics;
 mod pose;
+mod slate;
 
 pub use board::{find_checkerboard, local_square_px, refine_corners, BoardSearch};
 pub use intrinsics::{calibrate_intrinsics, IntrinsicsSolve, SolveOptions};
 pub use pose::{solve_pose, TargetPose};
+pub use slate::{find_slate, Features, SlateDetection, SlateMiss, SlateModel, MIN_INLIERS};
 
 use crate::dot::{ChannelOrder, ColourView};
 use opencv::core::{Mat, Vector};

@@ -28,7 +28,7 @@ fn main() {
     let (camera, _) = camera_file::read(&set.camera_file).expect("camera file");
     let job = LaserJob {
         camera,
-        board: Checkerboard::fishsense(),
+        target: Checkerboard::fishsense().into(),
         method: Method::Reprojection,
         gates: Gates::default(),
         detector: DotDetectorParams::default(),

@@ -2,7 +2,9 @@
 //! test binary into a temporary folder, with their ground truth.
 #![allow(dead_code)]
 
-use calib_targets::scene::{laser_scene_set, render, SceneSpec, SceneTruth, Water};
+use calib_targets::scene::{laser_scene_set, render, render_slate, slate_scene_set, RenderedScene, SceneSpec, SceneTruth, SlateSpec, SlateTexture, Water};
+use calib_targets::Slate;
+use fslcal_core::{CameraModel, LaserLine};
 use calib_targets::{camera_yaml, write_scene};
 use rayon::prelude::*;
 use std::path::{Path, PathBuf};
@@ -24,23 +26,43 @@ impl SceneSet {
 /// camera, into a fresh folder `name` under cargo's per-target scratch folder (statics are
 /// never dropped, so a `TempDir` would leak into /tmp).
 pub fn render_set(name: &str, specs: &[SceneSpec]) -> SceneSet {
+    render_with(name, specs.len(), &specs[0].camera, &|i| render(&specs[i]))
+}
+
+/// Renders `count` scenes with `render_one(i)` into a fresh folder `name` (see `render_set`).
+fn render_with(name: &str, count: usize, camera: &CameraModel, render_one: &(dyn Fn(usize) -> RenderedScene + Sync)) -> SceneSet {
     let dir = Path::new(env!("CARGO_TARGET_TMPDIR")).join(name);
     let _ = std::fs::remove_dir_all(&dir);
     std::fs::create_dir_all(&dir).expect("scratch folder");
-    let written: Vec<(PathBuf, SceneTruth)> = specs
-        .par_iter()
-        .enumerate()
-        .map(|(i, spec)| {
-            let scene = render(spec);
+    let written: Vec<(PathBuf, SceneTruth)> = (0..count)
+        .into_par_iter()
+        .map(|i| {
+            let scene = render_one(i);
             let name = format!("photo_{i:02}");
             write_scene(&dir, &name, &scene).expect("write scene");
             (dir.join(format!("{name}.jpg")), scene.truth)
         })
         .collect();
     let camera_file = dir.join("camera.yml");
-    std::fs::write(&camera_file, camera_yaml(&specs[0].camera)).expect("write camera file");
+    std::fs::write(&camera_file, camera_yaml(camera)).expect("write camera file");
     let (photos, truths) = written.into_iter().unzip();
     SceneSet { dir, photos, truths, camera_file }
+}
+
+/// The example slate committed in `calib-targets/slates/example/`.
+pub fn example_slate_path() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("calib-targets/slates/example/slate.toml")
+}
+
+pub fn example_slate() -> Slate {
+    Slate::load(&example_slate_path()).expect("the example slate loads")
+}
+
+/// Photos of the example slate from `laser`, as `slate_scene_set` places them.
+pub fn slate_set(name: &str, laser: LaserLine, depths_m: (f64, f64), count: usize, seed: u64, water: Water, glints: u32) -> SceneSet {
+    let texture = SlateTexture::from_slate(&example_slate()).expect("the example scan");
+    let specs: Vec<SlateSpec> = slate_scene_set(&texture, laser, depths_m, count, seed, water, glints);
+    render_with(name, specs.len(), &specs[0].camera, &|i| render_slate(&texture, &specs[i]))
 }
 
 pub fn laser_set(name: &str, count: usize, seed: u64, water: Water, glints: u32) -> SceneSet {

@@ -1,0 +1,99 @@
+//! `fslcal check`: has the laser moved since it was calibrated?
+
+use super::progress;
+use crate::calibration;
+use crate::drift_check::{check, DriftCheck, FLAG_SIGMAS};
+use anyhow::{bail, Context};
+use std::path::{Path, PathBuf};
+use std::process::ExitCode;
+
+/// Check for a moved laser: every photo with a laser dot (fish photos too, no target
+/// needed) is compared with the calibrated laser line's image.
+///
+/// A dot further from the line than the calibration's uncertainty and the dot's
+/// localisation explain flags the photo; half the photos or more flagged means the mount
+/// has moved. A laser turned within the plane of camera and beam cannot show here (its dot
+/// slides along the line): `fslcal validate` at several distances catches that.
+#[derive(clap::Args, Debug)]
+pub struct CheckArgs {
+    /// The calibration: the JSON `fslcal laser --out` writes, or a signed .fslcal.
+    #[arg(long, value_name = "CAL")]
+    cal: PathBuf,
+
+    /// Print one JSON object instead of the summary.
+    #[arg(long)]
+    json: bool,
+
+    /// Photos with the laser dot in them.
+    #[arg(required = true, value_name = "PHOTOS")]
+    photos: Vec<PathBuf>,
+}
+
+pub fn run(args: CheckArgs) -> anyhow::Result<ExitCode> {
+    let cal = calibration::load(&args.cal)?;
+    for p in &args.photos {
+        if !p.is_file() {
+            bail!("{}: no such photo", p.display());
+        }
+    }
+    let bar = progress::bar(args.photos.len(), "photos", args.json);
+    let result = check(&cal, &args.photos, &|| bar.inc(1));
+    bar.finish_and_clear();
+    let r = result.context("drift check")?;
+    if args.json {
+        let photos: Vec<serde_json::Value> = r
+            .photos
+            .iter()
+            .map(|p| {
+                serde_json::json!({
+                    "file": p.file, "dot_px": p.dot_px, "offset_px": p.offset_px, "flag": p.flag,
+                    "explained_sigma_px": p.explained_sigma_px, "distance_m": p.distance_m, "reason": p.reason,
+                })
+            })
+            .collect();
+        let v = serde_json::json!({
+            "photos": photos,
+            "drifted": r.drifted,
+            "implied_direction_change_deg": r.implied_direction_change_deg,
+        });
+        println!("{}", serde_json::to_string_pretty(&v)?);
+    } else {
+        print!("{}", summary(&r));
+    }
+    if r.drifted {
+        bail!(
+            "the laser has moved since {} was made (implied direction change {:.2} deg): recalibrate with `fslcal laser`",
+            args.cal.display(),
+            r.implied_direction_change_deg.unwrap_or(f64::NAN)
+        );
+    }
+    Ok(ExitCode::SUCCESS)
+}
+
+fn name_of(file: &str) -> String {
+    Path::new(file).file_name().map_or_else(|| file.to_string(), |n| n.to_string_lossy().into_owned())
+}
+
+fn summary(r: &DriftCheck) -> String {
+    let width = r.photos.iter().map(|p| name_of(&p.file).len()).max().unwrap_or(4).max(4);
+    let mut s = format!("fslcal check: {} photos\n\n", r.photos.len());
+    s += &format!("  {:width$}  {:>19}  {:>7}  {:>9}  {:>8}  {}\n", "file", "dot px", "dist m", "offset px", "sigma px", "status");
+    for p in &r.photos {
+        let dot = p.dot_px.map_or("-".into(), |d| format!("({:.1}, {:.1})", d[0], d[1]));
+        let f = |x: Option<f64>, d: usize| x.map_or("-".to_string(), |x| format!("{x:.d$}"));
+        let status = match (&p.reason, p.flag) {
+            (Some(r), _) => format!("skipped: {r}"),
+            (None, true) => "FLAG".to_string(),
+            (None, false) => "ok".to_string(),
+        };
+        s += &format!("  {:width$}  {dot:>19}  {:>7}  {:>9}  {:>8}  {status}\n", name_of(&p.file), f(p.distance_m, 3), f(p.offset_px, 2), f(p.explained_sigma_px, 2));
+    }
+    let with_dot = r.photos.iter().filter(|p| p.explained_sigma_px.is_some()).count();
+    let flagged = r.photos.iter().filter(|p| p.flag).count();
+    s += &format!("\nflagged (offset over {FLAG_SIGMAS} sigma): {flagged} of {with_dot} photos with a dot\n");
+    if let Some(d) = r.implied_direction_change_deg {
+        s += &format!("implied change of the laser's direction: {d:.3} deg (median)\n");
+    }
+    s += if r.drifted { "\nverdict: DRIFTED\n" } else { "\nverdict: no drift seen\n" };
+    s
+}

@@ -1,0 +1,146 @@
+//! `fslcal validate`: the slate-length check of a calibration.
+
+use super::progress;
+use crate::calibration;
+use crate::dot::DotDetectorParams;
+use crate::laser_calibration::TargetArg;
+use crate::validation::{validate, LengthRule, Validation, ValidationJob};
+use anyhow::{bail, Context};
+use std::path::{Path, PathBuf};
+use std::process::ExitCode;
+
+/// Check a calibration by measuring a known length on a target the way a fish is measured.
+///
+/// The scale comes from the laser dot and the calibration only; the target gives the two
+/// end points (and, by default, the plane's orientation). With photos at several distances
+/// a trend of the error with distance fails the check: that is a wrong laser direction.
+#[derive(clap::Args, Debug)]
+pub struct ValidateArgs {
+    /// The calibration: the JSON `fslcal laser --out` writes, or a signed .fslcal.
+    #[arg(long, value_name = "CAL")]
+    cal: PathBuf,
+
+    /// The target: `slate:PATH.toml` (docs/slate.md) or `checkerboard:COLSxROWS@SQUAREmm`
+    /// (whose known length is the first row's outermost inner corners).
+    #[arg(long, value_name = "TARGET")]
+    target: TargetArg,
+
+    /// The slate's known length to measure, by name (default: its first).
+    #[arg(long, value_name = "NAME")]
+    length: Option<String>,
+
+    /// Pass when every photo's length error is within this many percent.
+    #[arg(long, value_name = "PCT", default_value_t = 3.0)]
+    tolerance: f64,
+
+    /// Where the end points lie: on the plane through the dot with the target's detected
+    /// orientation (default), or both at the dot's depth as for a fish (the thesis's rule).
+    #[arg(long, value_enum, default_value_t = LengthRule::TiltedPlane)]
+    rule: LengthRule,
+
+    /// Print one JSON object instead of the summary.
+    #[arg(long)]
+    json: bool,
+
+    /// Photos of the target with the laser dot on it, ideally at several distances.
+    #[arg(required = true, value_name = "PHOTOS")]
+    photos: Vec<PathBuf>,
+}
+
+pub fn run(args: ValidateArgs) -> anyhow::Result<ExitCode> {
+    if !(args.tolerance > 0.0 && args.tolerance < 100.0) {
+        bail!("--tolerance {}: expected a percentage between 0 and 100", args.tolerance);
+    }
+    let cal = calibration::load(&args.cal)?;
+    for p in &args.photos {
+        if !p.is_file() {
+            bail!("{}: no such photo", p.display());
+        }
+    }
+    let target = args.target.load().map_err(anyhow::Error::msg)?;
+    let job = ValidationJob {
+        cal,
+        target,
+        length_name: args.length.clone(),
+        rule: args.rule,
+        tolerance_pct: args.tolerance,
+        detector: DotDetectorParams::default(),
+    };
+    let bar = progress::bar(args.photos.len(), "photos", args.json);
+    let result = validate(&job, &args.photos, &|| bar.inc(1));
+    bar.finish_and_clear();
+    let v = result.context("validation")?;
+    if args.json {
+        println!("{}", serde_json::to_string_pretty(&json_report(&v))?);
+    } else {
+        print!("{}", summary(&v));
+    }
+    if !v.pass {
+        bail!("calibration failed validation: {}", failure(&v));
+    }
+    Ok(ExitCode::SUCCESS)
+}
+
+fn failure(v: &Validation) -> String {
+    let failed = v.photos.iter().filter(|p| p.pass == Some(false)).count();
+    let measured = v.photos.iter().filter(|p| p.pass.is_some()).count();
+    let mut why = Vec::new();
+    if failed > 0 {
+        why.push(format!("{failed} of {measured} photos outside ±{}%", v.tolerance_pct));
+    }
+    if v.trend_fails {
+        if let Some((b, s)) = v.slope_pct_per_m {
+            why.push(format!("the error changes with distance by {b:+.2} ±{s:.2} %/m (a wrong laser direction): recalibrate the laser"));
+        }
+    }
+    why.join("; ")
+}
+
+fn json_report(v: &Validation) -> serde_json::Value {
+    serde_json::json!({
+        "length": v.length_name,
+        "true_mm": v.true_mm,
+        "rule": v.rule,
+        "tolerance_pct": v.tolerance_pct,
+        "photos": v.photos,
+        "error_slope_pct_per_m": v.slope_pct_per_m.map(|s| s.0),
+        "error_slope_sigma_pct_per_m": v.slope_pct_per_m.map(|s| s.1),
+        "trend_fails": v.trend_fails,
+        "pass": v.pass,
+    })
+}
+
+fn name_of(file: &str) -> String {
+    Path::new(file).file_name().map_or_else(|| file.to_string(), |n| n.to_string_lossy().into_owned())
+}
+
+fn summary(v: &Validation) -> String {
+    let rule = serde_json::to_value(v.rule).ok().and_then(|r| r.as_str().map(String::from)).unwrap_or_default();
+    let mut s = format!("fslcal validate: length `{}` ({:.1} mm), rule {rule}, tolerance ±{}%\n\n", v.length_name, v.true_mm, v.tolerance_pct);
+    let width = v.photos.iter().map(|p| name_of(&p.file).len()).max().unwrap_or(4).max(4);
+    s += &format!("  {:width$}  {:>7}  {:>11}  {:>8}  {:>8}  {}\n", "file", "dist m", "measured mm", "error %", "inliers", "status");
+    for p in &v.photos {
+        let f = |x: Option<f64>, d: usize| x.map_or("-".to_string(), |x| format!("{x:.d$}"));
+        let status = match (p.pass, &p.reason) {
+            (Some(true), _) => "pass".to_string(),
+            (Some(false), _) => "FAIL".to_string(),
+            (None, Some(r)) => format!("skipped: {r}"),
+            (None, None) => "skipped".to_string(),
+        };
+        let inl = p.target_inliers.map_or("-".to_string(), |n| n.to_string());
+        s += &format!("  {:width$}  {:>7}  {:>11}  {:>8}  {inl:>8}  {status}\n", name_of(&p.file), f(p.distance_m, 3), f(p.measured_mm, 1), f(p.error_pct.map(|e| e), 2));
+    }
+    let errs: Vec<f64> = v.photos.iter().filter_map(|p| p.error_pct).collect();
+    if !errs.is_empty() {
+        let rms = (errs.iter().map(|e| e * e).sum::<f64>() / errs.len() as f64).sqrt();
+        let worst = errs.iter().fold(0.0f64, |a, e| a.max(e.abs()));
+        let outside = errs.iter().filter(|e| e.abs() > v.tolerance_pct).count();
+        s += &format!("\nlength error: RMS {rms:.2}%, worst {worst:.2}%; outside tolerance {outside} of {}\n", errs.len());
+    }
+    match v.slope_pct_per_m {
+        Some((b, sd)) => s += &format!("error against distance: {b:+.2} ±{sd:.2} %/m{}\n", if v.trend_fails { "  TREND: the laser's direction is wrong" } else { "" }),
+        None => s += "error against distance: not judged (needs 3 photos spread over 0.5 m or more)\n",
+    }
+    s += if v.pass { "\nverdict: PASS\n" } else { "\nverdict: FAIL\n" };
+    s
+}
