@@ -13,6 +13,7 @@ use calib_targets::scene::{laser_scene_set, Water};
 use common::{no_board_spec, render_set, SceneSet};
 use std::path::{Path, PathBuf};
 use std::process::Command;
+use std::sync::OnceLock;
 
 /// Put at the top of a copy of the page's `<head>`: records load failures (capture phase
 /// sees every element's failed load), console errors and warnings, and on `load` writes
@@ -127,10 +128,68 @@ fn check_page(dir: &Path, profile: &Path) -> PageCheck {
     PageCheck { problems, images: images.len() }
 }
 
-fn scenes() -> SceneSet {
-    let mut specs = laser_scene_set(5, 41, Water::Clear, 1);
-    specs.push(no_board_spec(42));
-    render_set("report-browser", &specs)
+/// Rendered once per test binary, shared by the tests.
+fn scenes() -> &'static SceneSet {
+    static SET: OnceLock<SceneSet> = OnceLock::new();
+    SET.get_or_init(|| {
+        let mut specs = laser_scene_set(5, 41, Water::Clear, 1);
+        specs.push(no_board_spec(42));
+        render_set("report-browser", &specs)
+    })
+}
+
+fn fslcal(args: &[String]) -> std::process::Output {
+    Command::new(env!("CARGO_BIN_EXE_fslcal")).args(args).output().expect("run fslcal")
+}
+
+fn photo_args(set: &SceneSet) -> Vec<String> {
+    set.photos.iter().map(|p| p.display().to_string()).collect()
+}
+
+#[test]
+fn validate_and_check_reports_load_in_chromium() {
+    let set = scenes();
+    let dir = tempfile::tempdir().unwrap();
+    let cal = dir.path().join("laser.json");
+    let mut args: Vec<String> = vec![
+        "laser".into(),
+        "--camera".into(),
+        set.camera_file.display().to_string(),
+        "--target".into(),
+        "checkerboard:14x10@42.17mm".into(),
+        "--out".into(),
+        cal.display().to_string(),
+    ];
+    args.extend(photo_args(set));
+    let o = fslcal(&args);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let profile = tempfile::tempdir().unwrap();
+
+    let report = dir.path().join("validate-report");
+    let mut args: Vec<String> = vec!["validate".into(), "--cal".into(), cal.display().to_string()];
+    args.extend(["--target".into(), "checkerboard:14x10@42.17mm".into(), "--report".into(), report.display().to_string()]);
+    args.extend(photo_args(set));
+    let o = fslcal(&args);
+    let html = std::fs::read_to_string(report.join("index.html")).expect("validate report");
+    // Pass or fail, the page says which and lists all six photos.
+    let verdict = if o.status.success() { "PASS: " } else { "FAIL: " };
+    assert!(html.contains(verdict), "{}", String::from_utf8_lossy(&o.stderr));
+    assert!(html.contains("length `first row of inner corners` (548.2 mm)"));
+    assert!(html.contains("skipped: no 14x10 checkerboard found"));
+    assert_eq!(html.matches("<img src=\"thumbs/").count(), 6);
+    assert_loads_cleanly(&report, profile.path(), 8);
+
+    let report = dir.path().join("check-report");
+    let mut args: Vec<String> = vec!["check".into(), "--cal".into(), cal.display().to_string()];
+    args.extend(["--report".into(), report.display().to_string()]);
+    args.extend(photo_args(set));
+    let o = fslcal(&args);
+    let html = std::fs::read_to_string(report.join("index.html")).expect("check report");
+    let verdict = if o.status.success() { "No drift: " } else { "DRIFTED: " };
+    assert!(html.contains(verdict), "{}", String::from_utf8_lossy(&o.stderr));
+    assert!(html.contains("flag above (px)"));
+    assert_eq!(html.matches("<img src=\"thumbs/").count(), 6);
+    assert_loads_cleanly(&report, profile.path(), 7);
 }
 
 #[test]

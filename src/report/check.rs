@@ -19,6 +19,9 @@ pub struct CheckPhoto {
     pub dot_px: Option<Vec2>,
     /// Perpendicular offset of the dot from the line's image, pixels.
     pub offset_px: Option<f64>,
+    /// The offset beyond which this photo is flagged (it depends on the dot's distance and
+    /// localisation), pixels.
+    pub threshold_px: Option<f64>,
     pub flag: bool,
     /// Why the photo could not be checked.
     pub reason: Option<String>,
@@ -30,8 +33,9 @@ pub struct CheckReport {
     pub calibration: String,
     pub camera: CameraModel,
     pub laser: LaserLine,
-    /// Offsets above this are flagged, pixels.
-    pub threshold_px: f64,
+    /// A photo is flagged beyond this many sigmas of what the calibration and the dot's
+    /// localisation explain.
+    pub flag_sigmas: f64,
     pub photos: Vec<CheckPhoto>,
     pub drifted: bool,
     pub implied_direction_change_deg: Option<f64>,
@@ -42,16 +46,46 @@ fn offset_chart(r: &CheckReport) -> Chart {
     let pick = |flag: bool| -> Vec<(f64, f64)> {
         r.photos.iter().enumerate().filter(|(_, p)| p.flag == flag).filter_map(|(i, p)| Some((i as f64, p.offset_px?))).collect()
     };
-    c.layers.push(Layer::HLine { name: format!("flag above {:.1} px", r.threshold_px), y: r.threshold_px, colour: colour::LIMIT });
+    let thresholds: Vec<(f64, f64)> =
+        r.photos.iter().enumerate().filter_map(|(i, p)| Some((i as f64, p.threshold_px?))).collect();
+    let top = thresholds.iter().map(|p| p.1).fold(1.0f64, f64::max);
+    c.layers.push(Layer::Points { name: format!("flag threshold ({} sigma)", r.flag_sigmas), points: thresholds, colour: colour::LIMIT, marker: Marker::Cross });
     c.layers.push(Layer::Points { name: "within".into(), points: pick(false), colour: colour::USED, marker: Marker::Circle });
     let flagged = pick(true);
-    let top = flagged.iter().map(|p| p.1).fold(r.threshold_px, f64::max);
+    let top = flagged.iter().map(|p| p.1).fold(top, f64::max);
     if !flagged.is_empty() {
         c.layers.push(Layer::Points { name: "flagged".into(), points: flagged, colour: colour::OUTLIER, marker: Marker::Cross });
     }
     c.x_range = Some((-0.5, r.photos.len().max(1) as f64 - 0.5));
     c.y_range = Some((0.0, top * 1.2));
     c
+}
+
+#[cfg(feature = "vision")]
+impl CheckReport {
+    /// The report of `fslcal check`'s result.
+    pub fn of(r: &crate::drift_check::DriftCheck, cal: &crate::calibration::Calibration) -> Self {
+        CheckReport {
+            calibration: cal.source.display().to_string(),
+            camera: cal.camera,
+            laser: cal.laser,
+            flag_sigmas: crate::drift_check::FLAG_SIGMAS,
+            photos: r
+                .photos
+                .iter()
+                .map(|p| CheckPhoto {
+                    file: p.file.clone(),
+                    dot_px: p.dot_px.map(|d| Vec2::new(d[0], d[1])),
+                    offset_px: p.offset_px,
+                    threshold_px: p.explained_sigma_px.map(|s| s * crate::drift_check::FLAG_SIGMAS),
+                    flag: p.flag,
+                    reason: p.reason.clone(),
+                })
+                .collect(),
+            drifted: r.drifted,
+            implied_direction_change_deg: r.implied_direction_change_deg,
+        }
+    }
 }
 
 /// Writes the report into `dir`; returns the path of its `index.html`.
@@ -101,9 +135,10 @@ pub fn write(dir: &Path, r: &CheckReport) -> Result<PathBuf, ReportError> {
             status,
             p.dot_px.map_or("-".into(), |d| format!("({:.1}, {:.1})", d.x, d.y)).into(),
             p.offset_px.map_or("-".into(), |o| format!("{o:.2}")).into(),
+            p.threshold_px.map_or("-".into(), |o| format!("{o:.2}")).into(),
         ]);
     }
-    page.table(&["photo", "file", "result", "dot (px)", "offset (px)"], &[false, false, false, true, true], rows);
+    page.table(&["photo", "file", "result", "dot (px)", "offset (px)", "flag above (px)"], &[false, false, false, true, true, true], rows);
     files.write(dir, &page)
 }
 
@@ -133,10 +168,10 @@ mod tests {
             calibration: "laser.json".into(),
             camera,
             laser,
-            threshold_px: 3.0,
+            flag_sigmas: 5.0,
             photos: vec![
-                CheckPhoto { file: photo.display().to_string(), dot_px: Some(on_line), offset_px: Some(0.4), flag: false, reason: None },
-                CheckPhoto { file: photo.display().to_string(), dot_px: Some(on_line + Vec2::new(12.0, 0.0)), offset_px: Some(11.0), flag: true, reason: None },
+                CheckPhoto { file: photo.display().to_string(), dot_px: Some(on_line), offset_px: Some(0.4), threshold_px: Some(3.0), flag: false, reason: None },
+                CheckPhoto { file: photo.display().to_string(), dot_px: Some(on_line + Vec2::new(12.0, 0.0)), offset_px: Some(11.0), threshold_px: Some(2.5), flag: true, reason: None },
             ],
             drifted: true,
             implied_direction_change_deg: Some(0.21),
@@ -146,7 +181,8 @@ mod tests {
         assert!(html.contains("DRIFTED: 1 of 2 dots off the calibrated line; implied change of direction 0.210 deg"), "{html}");
         assert!(html.contains("<td class=\"bad\">flagged</td>"));
         let svg = std::fs::read_to_string(out.join("plots/check-offsets.svg")).unwrap();
-        assert!(svg.contains("flag above 3.0 px"));
+        assert!(svg.contains("flag threshold (5 sigma)"));
+        assert!(html.contains("<td class=\"num\">2.50</td>"), "each photo's own threshold");
         // The thumbnail shows the line through the on-line dot's pixel (scale 320/400).
         let thumb = image::open(out.join("thumbs/00-fish.jpg")).unwrap().to_rgb8();
         let (u, v) = ((0.8 * (on_line.x + 0.5) - 0.5).round() as u32, (0.8 * (on_line.y + 0.5) - 0.5).round() as u32);

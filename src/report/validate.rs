@@ -45,6 +45,36 @@ pub struct ValidationReport {
     pub trend_pct_per_m: Option<(f64, bool)>,
 }
 
+#[cfg(feature = "vision")]
+impl ValidationReport {
+    /// The report of `fslcal validate`'s result.
+    pub fn of(v: &crate::validation::Validation, calibration: &Path, target: String) -> Self {
+        ValidationReport {
+            calibration: calibration.display().to_string(),
+            target: format!("{target}, length `{}` ({:.1} mm)", v.length_name, v.true_mm),
+            tolerance_pct: v.tolerance_pct,
+            photos: v
+                .photos
+                .iter()
+                .map(|p| ValidationPhoto {
+                    file: p.file.clone(),
+                    distance_m: p.distance_m,
+                    measured_mm: p.measured_mm,
+                    true_mm: Some(p.true_mm),
+                    error_pct: p.error_pct,
+                    pass: p.pass,
+                    reason: p.reason.clone(),
+                    ends_px: p.ends_px,
+                    dot_px: p.dot_px.map(|d| Vec2::new(d[0], d[1])),
+                    target_outline_px: p.target_outline_px.clone(),
+                })
+                .collect(),
+            pass: v.pass,
+            trend_pct_per_m: v.slope_pct_per_m.map(|(b, _)| (b, !v.trend_fails)),
+        }
+    }
+}
+
 fn measured(r: &ValidationReport) -> impl Iterator<Item = &ValidationPhoto> {
     r.photos.iter().filter(|p| p.measured_mm.is_some() && p.true_mm.is_some() && p.distance_m.is_some())
 }
