@@ -146,22 +146,20 @@ fn photo_args(set: &SceneSet) -> Vec<String> {
     set.photos.iter().map(|p| p.display().to_string()).collect()
 }
 
+/// `fslcal laser` on the shared scenes with one more option (`--out` or `--report`).
+fn laser_args(set: &SceneSet, option: &str, path: &Path) -> Vec<String> {
+    let mut args: Vec<String> = vec!["laser".into(), "--camera".into(), set.camera_file.display().to_string()];
+    args.extend(["--target".into(), "checkerboard:14x10@42.17mm".into(), option.into(), path.display().to_string()]);
+    args.extend(photo_args(set));
+    args
+}
+
 #[test]
 fn validate_and_check_reports_load_in_chromium() {
     let set = scenes();
     let dir = tempfile::tempdir().unwrap();
     let cal = dir.path().join("laser.json");
-    let mut args: Vec<String> = vec![
-        "laser".into(),
-        "--camera".into(),
-        set.camera_file.display().to_string(),
-        "--target".into(),
-        "checkerboard:14x10@42.17mm".into(),
-        "--out".into(),
-        cal.display().to_string(),
-    ];
-    args.extend(photo_args(set));
-    let o = fslcal(&args);
+    let o = fslcal(&laser_args(set, "--out", &cal));
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     let profile = tempfile::tempdir().unwrap();
 
@@ -196,17 +194,7 @@ fn validate_and_check_reports_load_in_chromium() {
 fn laser_report_loads_in_chromium_with_every_image_and_no_errors() {
     let set = scenes();
     let report = set.path().join("report");
-    let mut args: Vec<String> = vec![
-        "laser".into(),
-        "--camera".into(),
-        set.camera_file.display().to_string(),
-        "--target".into(),
-        "checkerboard:14x10@42.17mm".into(),
-        "--report".into(),
-        report.display().to_string(),
-    ];
-    args.extend(set.photos.iter().map(|p| p.display().to_string()));
-    let o = Command::new(env!("CARGO_BIN_EXE_fslcal")).args(&args).output().unwrap();
+    let o = fslcal(&laser_args(set, "--report", &report));
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
 
     // The page's own claims: the skipped photo's reason, five plots, six thumbnails.

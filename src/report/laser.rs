@@ -309,8 +309,9 @@ fn key_figures(page: &mut Page, cal: &LaserCalibration, camera: &CameraModel, po
 fn photo_section(page: &mut Page, files: &mut ReportFiles, photos: &[PhotoReport], camera: &CameraModel, laser: Option<&LaserLine>) {
     page.heading("Photos");
     page.note(
-        "Drawn on each photo: the detected board's inner-corner grid (yellow) and corners (cyan), the dot used \
-         (red ring), the fitted laser line's image (magenta) and where it meets this photo's board (white cross).",
+        "Drawn on each photo: the target's outline from its pose (yellow, padded as the dot search is), a \
+         checkerboard's detected corners (cyan), the dot used (red ring), the fitted laser line's image (magenta) \
+         and where it meets this photo's target (white cross).",
     );
     let overlays: Vec<(&str, Overlay)> = photos.iter().map(|p| (p.file.as_str(), overlay(p, camera, laser))).collect();
     let mut rows = Vec::new();
