@@ -163,7 +163,7 @@ pub fn write(dir: &Path, report: &CameraReport) -> Result<PathBuf, ReportError> 
     }
 
     page.heading("Photos");
-    page.note("Drawn on each photo: the detected inner-corner grid (yellow) and corners (cyan); corners left out of the solve in red.");
+    page.note("Drawn on each photo: the detected inner-corner grid (yellow) and corners (orange); corners left out of the solve in red.");
     let overlays: Vec<(&str, Overlay)> = cal
         .photos
         .iter()

@@ -310,7 +310,7 @@ fn photo_section(page: &mut Page, files: &mut ReportFiles, photos: &[PhotoReport
     page.heading("Photos");
     page.note(
         "Drawn on each photo: the target's outline from its pose (yellow, padded as the dot search is), a \
-         checkerboard's detected corners (cyan), the dot used (red ring), the fitted laser line's image (magenta) \
+         checkerboard's detected corners (orange), the dot used (red ring), the fitted laser line's image (magenta) \
          and where it meets this photo's target (white cross).",
     );
     let overlays: Vec<(&str, Overlay)> = photos.iter().map(|p| (p.file.as_str(), overlay(p, camera, laser))).collect();

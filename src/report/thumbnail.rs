@@ -7,7 +7,7 @@ use image::{imageops, ImageReader, Rgb, RgbImage};
 use std::path::Path;
 
 pub const BOARD: Rgb<u8> = Rgb([255, 215, 0]);
-pub const CORNER: Rgb<u8> = Rgb([0, 200, 255]);
+pub const CORNER: Rgb<u8> = Rgb([255, 140, 0]);
 pub const DOT: Rgb<u8> = Rgb([255, 40, 40]);
 pub const PREDICTED: Rgb<u8> = Rgb([255, 255, 255]);
 pub const LASER: Rgb<u8> = Rgb([255, 0, 255]);
@@ -106,7 +106,7 @@ pub fn draw_overlay(img: &mut RgbImage, scale: f64, overlay: &Overlay) {
         _ => true,
     };
     for m in overlay.marks_px.iter().filter(|_| spaced) {
-        disc(img, map(m), 0.8, CORNER);
+        disc(img, map(m), 1.0, CORNER);
     }
     for m in &overlay.bad_marks_px {
         disc(img, map(m), 1.6, DOT);
