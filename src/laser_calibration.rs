@@ -177,19 +177,29 @@ pub enum Target {
 }
 
 impl Target {
-    /// The dot detector for this target. A slate's dots are seen closer (0.45 m) than a
-    /// board's, where murky water's forward scatter makes the halo larger than the
-    /// detector's usual limit.
+    /// The dot detector for this target. A slate's texture (tape edges, pencil, light
+    /// patches under a green-blue veil) makes more dot-like blobs than a board's two colours,
+    /// so its candidates must be [`SLATE_SNR_FACTOR`] times as strong; its dots are seen
+    /// closer (0.45 m) than a board's, where murky water's forward scatter makes the halo
+    /// larger than the detector's usual limit.
     pub fn find_dots(&self, img: &ColourView, region: &SearchRegion, params: &DotDetectorParams, max: usize) -> Vec<DotCandidate> {
         match self {
             Target::Checkerboard(_) => find_dot_candidates(img, region, params, max),
             Target::Slate(_) => {
-                let params = DotDetectorParams { max_area_px: params.max_area_px.max(SLATE_MAX_DOT_AREA_PX), ..params.clone() };
+                let params = DotDetectorParams {
+                    max_area_px: params.max_area_px.max(SLATE_MAX_DOT_AREA_PX),
+                    min_snr: params.min_snr * SLATE_SNR_FACTOR,
+                    ..params.clone()
+                };
                 find_dot_candidates(img, region, &params, max)
             }
         }
     }
 }
+
+/// On a slate, dot candidates need this many times the detector's usual SNR: measured on
+/// the synthetic slate scenes, scenery blobs reach SNR 16 and the dots score 56 or more.
+pub const SLATE_SNR_FACTOR: f64 = 2.5;
 
 /// Largest dot blob on a slate, pixels: a saturated dot at 0.45 m in murky water with its
 /// scattered halo.

@@ -9,7 +9,15 @@ use calib_targets::scene::Water;
 use common::slate_set;
 use fslcal::calibration::Calibration;
 use fslcal::drift_check::check;
+use common::SceneSet;
 use fslcal_core::LaserLine;
+use std::process::Command;
+use std::sync::OnceLock;
+
+fn knocked_set() -> &'static SceneSet {
+    static SET: OnceLock<SceneSet> = OnceLock::new();
+    SET.get_or_init(|| slate_set("check-knocked", knocked(&fsl_laser(), 0.4), (0.6, 2.0), 3, 41, Water::Clear, 1))
+}
 
 /// The rig's laser with the 1-sigma uncertainty a slate fit reports (origin 0.5 mm,
 /// direction 0.006 deg per axis).
@@ -37,7 +45,7 @@ fn knocked(l: &LaserLine, deg: f64) -> LaserLine {
 
 #[test]
 fn a_laser_knocked_by_0_4_deg_is_flagged_from_three_photos() {
-    let set = slate_set("check-knocked", knocked(&fsl_laser(), 0.4), (0.6, 2.0), 3, 41, Water::Clear, 1);
+    let set = knocked_set();
     let r = check(&calibration(), &set.photos, &|| {}).expect("check");
     for p in &r.photos {
         eprintln!("  knocked: {} offset {:?} px, sigma {:?}, flag {}, {:?}", p.file, p.offset_px, p.explained_sigma_px, p.flag, p.reason);
@@ -63,4 +71,48 @@ fn fifty_photos_from_the_calibrated_laser_are_not_flagged() {
     assert!(with_dot >= 45, "only {with_dot} of 50 dots found");
     assert!(!r.drifted);
     assert!(flagged * 50 <= with_dot, "false-flag rate {flagged} of {with_dot} (limit 2%)");
+}
+
+/// The calibration as `fslcal laser --out` writes it (the keys `calibration::load` reads).
+fn write_cal(path: &std::path::Path, cal: &Calibration) {
+    let v = serde_json::json!({
+        "camera": fslcal::calibration::camera_json(&cal.camera),
+        "laser": { "origin_m": cal.laser.origin_m, "direction": cal.laser.direction, "covariance": cal.laser_covariance },
+        "depth_range_m": cal.depth_range_m,
+    });
+    std::fs::write(path, serde_json::to_vec_pretty(&v).unwrap()).unwrap();
+}
+
+#[test]
+fn the_check_command_reports_json_and_fails_in_one_line() {
+    let set = knocked_set();
+    let cal_path = set.dir.join("cal.json");
+    write_cal(&cal_path, &calibration());
+    let mut args = vec!["check".to_string(), "--cal".into(), cal_path.display().to_string(), "--json".into()];
+    args.extend(set.photos.iter().map(|p| p.display().to_string()));
+    let o = Command::new(env!("CARGO_BIN_EXE_fslcal")).args(&args).output().unwrap();
+    assert!(!o.status.success(), "a drifted laser must fail the command");
+    let v: serde_json::Value = serde_json::from_slice(&o.stdout).expect("one JSON object");
+    assert_eq!(v["drifted"], true);
+    assert!(v["implied_direction_change_deg"].as_f64().unwrap() > 0.2);
+    for p in v["photos"].as_array().unwrap() {
+        assert!(p["file"].is_string() && p["dot_px"].is_array() && p["offset_px"].as_f64().unwrap() > 5.0 && p["flag"] == true, "{p}");
+    }
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(err.trim().lines().count(), 1, "{err}");
+    assert!(err.contains("recalibrate"), "{err}");
+
+    // A corrupt calibration: one line naming the file.
+    let bad = set.dir.join("bad.json");
+    std::fs::write(&bad, b"{\"photos\": [").unwrap();
+    let o = Command::new(env!("CARGO_BIN_EXE_fslcal")).args(["check", "--cal", bad.to_str().unwrap(), set.photos[0].to_str().unwrap()]).output().unwrap();
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(!o.status.success() && err.trim().lines().count() == 1 && err.contains("bad.json"), "{err}");
+    // validate with a slate that has no such length.
+    let o = Command::new(env!("CARGO_BIN_EXE_fslcal"))
+        .args(["validate", "--cal", cal_path.to_str().unwrap(), "--target", &format!("slate:{}", common::example_slate_path().display()), "--length", "nope", set.photos[0].to_str().unwrap()])
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(!o.status.success() && err.trim().lines().count() == 1 && err.contains("no length named `nope`"), "{err}");
 }

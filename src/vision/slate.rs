@@ -47,7 +47,7 @@ const MIN_COARSE_INLIERS: usize = 15;
 pub const MIN_INLIERS: usize = 30;
 /// Inliers must cover at least this share of the slate (their convex hull), or the pose
 /// hangs on one corner.
-const MIN_HULL_SHARE: f64 = 0.15;
+const MIN_HULL_SHARE: f64 = 0.08;
 /// Largest acceptable RMS reprojection error of the inliers under the pose, pixels of the
 /// fine crop.
 const MAX_POSE_RMS_PX: f64 = 2.0;
@@ -323,7 +323,12 @@ pub fn find_slate(model: &SlateModel, encoded: &EncodedPhoto, camera: &CameraMod
     let hull: Vec<Vec2> = inliers.iter().map(|&i| src[i]).collect();
     let share = convex_hull_area(&hull) / (model.scan_size.0 as f64 * model.scan_size.1 as f64);
     if share < MIN_HULL_SHARE {
-        return Err(SlateMiss::Weak { inliers: inliers.len(), matches: matches.len(), needed: MIN_INLIERS });
+        return Err(SlateMiss::Implausible(format!(
+            "the {} inliers cover only {:.0}% of the slate (need {:.0}%): the pose would hang on one corner",
+            inliers.len(),
+            100.0 * share,
+            100.0 * MIN_HULL_SHARE
+        )));
     }
     let object: Vec<Vec3> = inliers.iter().map(|&i| model.scan_point_m(src[i])).collect();
     let image: Vec<Vec2> = inliers.iter().map(|&i| dst[i]).collect();
