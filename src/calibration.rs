@@ -25,6 +25,9 @@ pub struct Calibration {
     pub unit: Option<String>,
     /// Camera body serial, when the file records it.
     pub camera_serial: Option<String>,
+    /// Focal length the calibration photos were taken at (EXIF), millimetres: another
+    /// means the zoom was used.
+    pub focal_length_mm: Option<f64>,
     pub source: PathBuf,
 }
 
@@ -72,6 +75,7 @@ struct LaserResultJson {
     depth_range_m: Option<(f64, f64)>,
     unit: Option<String>,
     camera_serial: Option<String>,
+    focal_length_mm: Option<f64>,
 }
 
 /// The `camera` object every JSON output uses: `image_size` [w, h] and `fx`, `fy`, `cx`, `cy`
@@ -114,6 +118,8 @@ pub fn from_unit_file(file: &unit_file::SignedUnitFile<'_>, path: &Path) -> Cali
         depth_range_m: c.depth_range_m.map(|[a, b]| (a as f64, b as f64)),
         unit: Some(c.unit.to_string()),
         camera_serial: c.camera_identity.serial.map(str::to_string),
+        // The unit file does not record the zoom; only the JSON result carries it.
+        focal_length_mm: None,
         source: path.to_path_buf(),
     }
 }
@@ -150,6 +156,7 @@ fn parse_laser_json(bytes: &[u8], path: &Path) -> Result<Calibration, Calibratio
         depth_range_m: r.depth_range_m,
         unit: r.unit,
         camera_serial: r.camera_serial,
+        focal_length_mm: r.focal_length_mm,
         source: path.to_path_buf(),
     })
 }

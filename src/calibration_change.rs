@@ -78,6 +78,7 @@ mod tests {
             laser_covariance: [[0.0; 4]; 4],
             depth_range_m: None,
             unit: None,
+            focal_length_mm: None,
             camera_serial: None,
             source: PathBuf::new(),
         }

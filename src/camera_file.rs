@@ -27,6 +27,11 @@ pub enum CameraFileError {
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct CameraFileExtras {
     pub avg_reprojection_error: Option<f64>,
+    /// Body serial of the camera the photos came from (EXIF), so photos from another body
+    /// can be refused.
+    pub camera_serial: Option<String>,
+    /// Focal length of the calibration photos (EXIF), millimetres: another means zoom.
+    pub focal_length_mm: Option<f64>,
 }
 
 fn scalar(text: &str, key: &str) -> Option<String> {
@@ -122,7 +127,11 @@ pub fn parse(text: &str, path: &str) -> Result<(CameraModel, CameraFileExtras), 
         },
         OpencvCameraProblem::Implausible => CameraFileError::Implausible { path: path.into(), w, h },
     })?;
-    let extras = CameraFileExtras { avg_reprojection_error: scalar(text, "avg_reprojection_error").and_then(|s| s.parse().ok()) };
+    let extras = CameraFileExtras {
+        avg_reprojection_error: scalar(text, "avg_reprojection_error").and_then(|s| s.parse().ok()),
+        camera_serial: scalar(text, "camera_serial").map(|s| s.trim_matches('"').to_string()).filter(|s| !s.is_empty()),
+        focal_length_mm: scalar(text, "focal_length_mm").and_then(|s| s.parse().ok()),
+    };
     Ok((camera, extras))
 }
 
@@ -148,6 +157,12 @@ pub fn to_yaml(camera: &CameraModel, extras: &CameraFileExtras) -> String {
     s += &format!("   data: [ {:.17e}, {:.17e}, {:.17e}, {:.17e}, {:.17e} ]\n", d[0], d[1], d[2], d[3], d[4]);
     if let Some(e) = extras.avg_reprojection_error {
         s += &format!("avg_reprojection_error: {e:.17e}\n");
+    }
+    if let Some(serial) = &extras.camera_serial {
+        s += &format!("camera_serial: \"{serial}\"\n");
+    }
+    if let Some(f) = extras.focal_length_mm {
+        s += &format!("focal_length_mm: {f}\n");
     }
     s
 }

@@ -6,19 +6,22 @@
 
 pub mod atomic_file;
 pub mod calibration;
+pub mod calibration_change;
 #[cfg(feature = "vision")]
 pub mod camera_calibration;
-pub mod camera_fit;
-pub mod calibration_change;
 pub mod camera_file;
+pub mod camera_fit;
 pub mod cli;
 pub mod dot;
+pub mod exif;
 pub mod fishsense_pkg;
 pub mod keys;
 pub mod dot_on_line;
 #[cfg(feature = "vision")]
 pub mod laser_calibration;
 pub mod laser_fit;
+pub mod photo_identity;
+pub mod raw;
 pub mod report;
 pub mod unit_files;
 pub mod unit_registry;

@@ -3,12 +3,14 @@
 //! [`Checkerboard`] defines the printed board (inner corners, measured square). [`scene`]
 //! renders photos of it as the FishSense Lite rig would take them under water, with the
 //! laser dot, glints and the exact truth, for tests, benchmarks and the demo; the
-//! `render-scenes` binary writes sets of them to disk.
+//! `render-scenes` binary writes sets of them to disk. [`orf`] wraps a rendered photo in a
+//! synthetic Olympus TG-6 raw file.
 //!
 //! Conventions are fslcal's (`docs/conventions.md`): camera frame x right, y down, z
 //! forward; `T_cam_target` maps target points into the camera frame; metres, pixels with the
 //! centre of the top-left pixel at (0, 0).
 
+pub mod orf;
 mod output;
 mod random;
 pub mod rig;

@@ -76,7 +76,7 @@ pub fn run(args: CameraArgs) -> anyhow::Result<ExitCode> {
         }
     }
     if let Some(out) = &args.out {
-        let yaml = camera_file::to_yaml(&cal.camera, &CameraFileExtras { avg_reprojection_error: Some(cal.rms_px) });
+        let yaml = camera_file::to_yaml(&cal.camera, &CameraFileExtras { avg_reprojection_error: Some(cal.rms_px), ..CameraFileExtras::default() });
         write_atomically(out, yaml.as_bytes()).with_context(|| format!("{}: cannot write the camera file", out.display()))?;
         if !args.json {
             println!("wrote {}", out.display());

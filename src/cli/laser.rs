@@ -11,6 +11,8 @@ use crate::laser_fit::{Gates, Method};
 use crate::report::{self, laser::{LaserOutcome, LaserReport}};
 use anyhow::{bail, Context};
 use crate::calibration::camera_json;
+use crate::exif::PhotoExif;
+use crate::photo_identity::check_photos;
 use fslcal_core::{CameraModel, Vec2};
 use serde_json::json;
 use std::path::{Path, PathBuf};
@@ -56,6 +58,11 @@ pub struct LaserArgs {
     #[arg(long, value_name = "PX", default_value_t = 4.0)]
     max_dot_offset_px: f64,
 
+    /// Accept photos from another camera body than the camera file's (`camera_serial`);
+    /// without it they are refused.
+    #[arg(long)]
+    allow_other_body: bool,
+
     /// Print one JSON object instead of the summary.
     #[arg(long)]
     json: bool,
@@ -74,7 +81,7 @@ pub struct LaserArgs {
     #[command(flatten)]
     signing: SigningArgs,
 
-    /// Calibration photos (JPEG or PNG).
+    /// Calibration photos (JPEG, PNG or Olympus ORF raw).
     #[arg(required = true, value_name = "PHOTOS")]
     photos: Vec<PathBuf>,
 }
@@ -124,7 +131,7 @@ fn hand_dots(args: &LaserArgs) -> anyhow::Result<HandDots> {
 }
 
 pub fn run(args: LaserArgs) -> anyhow::Result<ExitCode> {
-    let (camera, prior) = signing::read_camera(&args.camera, &args.signing)?;
+    let (camera, prior, expected) = signing::read_camera(&args.camera, &args.signing)?;
     let signed_out = args.out.as_deref().filter(|o| signing::is_unit_file_path(o));
     if let Some(out) = signed_out {
         // Refuse before the long fit, not after it.
@@ -138,6 +145,9 @@ pub fn run(args: LaserArgs) -> anyhow::Result<ExitCode> {
         if !p.is_file() {
             bail!("{}: no such photo", p.display());
         }
+    }
+    for w in check_photos(&expected, &args.photos, args.allow_other_body)? {
+        eprintln!("fslcal: warning: {w}");
     }
     let job = LaserJob {
         camera,
@@ -176,7 +186,13 @@ pub fn run(args: LaserArgs) -> anyhow::Result<ExitCode> {
         bail!("laser calibration rejected: {}{note}", failed.join(", "));
     }
     if let Some(out) = signed_out {
-        let size = signing::sign_unit_file(out, &args.signing, prior.as_ref(), unit_contents(&job.target.to_string(), &camera, &cal))?;
+        let mut signing_args = args.signing.clone();
+        if signing_args.camera_serial.is_none() {
+            // The body the photos agree on is the body calibrated: record it so photos from
+            // another body are refused later.
+            signing_args.camera_serial = photo_exif(&args.photos).1;
+        }
+        let size = signing::sign_unit_file(out, &signing_args, prior.as_ref(), unit_contents(&job.target.to_string(), &camera, &cal))?;
         if !args.json {
             println!("wrote {} (signed, {size} bytes)", out.display());
         }
@@ -202,9 +218,24 @@ fn write_report(args: &LaserArgs, job: &LaserJob, outcome: LaserOutcome) -> anyh
     Ok(())
 }
 
+/// The photos' EXIF, and the body serial and focal length they agree on (what a later
+/// `--cal` checks photos against).
+fn photo_exif(photos: &[PathBuf]) -> (Vec<Option<PhotoExif>>, Option<String>, Option<f64>) {
+    let exif: Vec<Option<PhotoExif>> = photos.iter().map(|p| PhotoExif::read_file(p)).collect();
+    let agreed = |get: &dyn Fn(&PhotoExif) -> Option<String>| -> Option<String> {
+        let mut values = exif.iter().map(|e| e.as_ref().and_then(get));
+        let first = values.next()??;
+        values.all(|v| v.as_ref() == Some(&first)).then_some(first)
+    };
+    let serial = agreed(&|e| e.serial.clone());
+    let focal = agreed(&|e| e.focal_length_mm.map(|f| format!("{f}"))).and_then(|f| f.parse().ok());
+    (exif, serial, focal)
+}
+
 fn json_report(args: &LaserArgs, job: &LaserJob, cal: &LaserCalibration) -> serde_json::Value {
     let camera = &job.camera;
     let f = &cal.fit;
+    let (exif, serial, focal) = photo_exif(&args.photos);
     let sigma: serde_json::Map<String, serde_json::Value> =
         f.distance_sigma_m.iter().map(|(z, s)| (format!("{z}"), json!(s))).collect();
     json!({
@@ -232,6 +263,11 @@ fn json_report(args: &LaserArgs, job: &LaserJob, cal: &LaserCalibration) -> serd
         "gates": cal.gates,
         "accepted": cal.accepted(),
         "photos": cal.photos,
+        // Who took the photos, when and how deep: carried so `--cal` users can refuse
+        // another body's photos and warn on zoom.
+        "camera_serial": serial,
+        "focal_length_mm": focal,
+        "photo_exif": exif,
     })
 }
 

@@ -7,6 +7,7 @@ mod inspect;
 mod keygen;
 #[cfg(feature = "vision")]
 mod camera;
+mod develop;
 #[cfg(feature = "vision")]
 mod check;
 #[cfg(feature = "vision")]
@@ -17,6 +18,8 @@ mod progress;
 mod signing;
 mod units;
 mod verify;
+
+pub use develop::develop_one;
 
 use clap::{Parser, Subcommand};
 use std::process::ExitCode;
@@ -32,6 +35,7 @@ pub struct Cli {
 
 #[derive(Subcommand, Debug)]
 enum Command {
+    Develop(develop::DevelopArgs),
     #[cfg(feature = "vision")]
     Camera(camera::CameraArgs),
     #[cfg(feature = "vision")]
@@ -52,6 +56,7 @@ enum Command {
 pub fn run() -> anyhow::Result<ExitCode> {
     let cli = Cli::parse();
     match cli.command {
+        Command::Develop(args) => develop::run(args),
         #[cfg(feature = "vision")]
         Command::Camera(args) => camera::run(args),
         #[cfg(feature = "vision")]

@@ -1,5 +1,6 @@
 //! The options every command that signs a unit file shares (`laser`, `import`).
 
+use crate::photo_identity::ExpectedCamera;
 use crate::unit_files::{self, UnitFileError};
 use fslcal_core::unit_file::{self, CameraIdentity, UnitFile};
 use fslcal_core::CameraModel;
@@ -58,11 +59,13 @@ pub struct PriorUnit {
 
 /// Reads `--camera`: an OpenCV camera file, or a previous signed unit file of the same unit
 /// (told apart by its magic), which must be intact and, when --unit is given, that unit's.
-pub fn read_camera(path: &std::path::Path, signing: &SigningArgs) -> anyhow::Result<(CameraModel, Option<PriorUnit>)> {
+/// Also returns the body (and zoom) the photos must come from, where the file records them.
+pub fn read_camera(path: &std::path::Path, signing: &SigningArgs) -> anyhow::Result<(CameraModel, Option<PriorUnit>, ExpectedCamera)> {
     let bytes = unit_files::read_bytes(path)?;
     if !bytes.starts_with(&unit_file::MAGIC) {
-        let (camera, _) = crate::camera_file::read(path)?;
-        return Ok((camera, None));
+        let (camera, extras) = crate::camera_file::read(path)?;
+        let expected = ExpectedCamera { serial: extras.camera_serial, focal_length_mm: extras.focal_length_mm };
+        return Ok((camera, None, expected));
     }
     let err = UnitFileError::at(path);
     let file = unit_file::SignedUnitFile::decode(&bytes).map_err(&err)?;
@@ -77,7 +80,8 @@ pub fn read_camera(path: &std::path::Path, signing: &SigningArgs) -> anyhow::Res
     }
     let id = &c.camera_identity;
     let prior = PriorUnit { unit: theirs, make: id.make.into(), model: id.model.into(), serial: id.serial.map(str::to_string) };
-    Ok((c.camera, Some(prior)))
+    let expected = ExpectedCamera { serial: prior.serial.clone(), focal_length_mm: None };
+    Ok((c.camera, Some(prior), expected))
 }
 
 /// True when `out` names a signed unit file rather than a JSON result.

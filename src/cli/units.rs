@@ -145,7 +145,7 @@ fn list(registry: &Registry, trust: Option<&Path>, as_json: bool) -> anyhow::Res
         println!("{}: no units yet; file calibrations with `fslcal units add FILE.fslcal`", registry.root.display());
         return Ok(ExitCode::SUCCESS);
     }
-    println!("{:8} {:>4}  {:20} {:>6}  {:16}  {:16}  {}", "unit", "cals", "current (made)", "age", "signer", "validation", "status");
+    println!("{:8} {:>4}  {:20} {:>6}  {:16}  {:16}  status", "unit", "cals", "current (made)", "age", "signer", "validation");
     for u in &units {
         let (made, age, signer, status) = match &u.current {
             Some(c) => (

@@ -190,7 +190,7 @@ struct PayloadV1<'a> {
 const UPPER: [(usize, usize); 10] = [(0, 0), (0, 1), (0, 2), (0, 3), (1, 1), (1, 2), (1, 3), (2, 2), (2, 3), (3, 3)];
 
 impl<'a> UnitFile<'a> {
-    fn to_wire(&self, signer: [u8; 32]) -> PayloadV1<'a> {
+    fn to_wire(self, signer: [u8; 32]) -> PayloadV1<'a> {
         let c = &self.camera;
         PayloadV1 {
             unit: self.unit,
@@ -273,7 +273,7 @@ impl<'a> UnitFile<'a> {
         }
         let d = self.laser.dir();
         let o = &self.laser.origin_m;
-        if !(o[0].is_finite() && o[1].is_finite() && o[2] == 0.0) || !d.iter().all(|v| v.is_finite()) {
+        if !o[0].is_finite() || !o[1].is_finite() || o[2] != 0.0 || !d.iter().all(|v| v.is_finite()) {
             return Err("laser origin or direction not finite");
         }
         if (d.norm() - 1.0).abs() > 1e-9 || d.z <= 0.0 {
@@ -355,7 +355,7 @@ impl<'a> SignedUnitFile<'a> {
             return Err(truncated(HEADER_BYTES));
         }
         let total = u16::from_le_bytes([bytes[5], bytes[6]]) as usize;
-        if total > MAX_FILE_BYTES || total < HEADER_BYTES + SIGNATURE_BYTES {
+        if !(HEADER_BYTES + SIGNATURE_BYTES..=MAX_FILE_BYTES).contains(&total) {
             return Err(FormatError::Corrupt("impossible length in the header"));
         }
         if bytes.len() < total {
@@ -403,6 +403,54 @@ pub fn verify<'a>(bytes: &'a [u8], trusted: &[[u8; 32]]) -> Result<SignedUnitFil
         return Err(FormatError::UnknownSigner(file.key_id()));
     }
     Ok(file)
+}
+
+/// The secret key of the worked example in `docs/calib-format.md`: never trust its public
+/// key for real calibrations.
+pub const EXAMPLE_SECRET_KEY: [u8; 32] = *b"fslcal example key, not a secret";
+
+/// The worked example of `docs/calib-format.md`: a TG-6 calibration of unit FSL-03.
+pub fn example() -> UnitFile<'static> {
+    UnitFile {
+        unit: "FSL-03",
+        camera_identity: CameraIdentity { make: "OLYMPUS CORPORATION", model: "TG-6", serial: Some("BJ7654321") },
+        camera: CameraModel {
+            width_px: 4000,
+            height_px: 3000,
+            fx_px: 2912.5,
+            fy_px: 2913.25,
+            cx_px: 2004.75,
+            cy_px: 1497.5,
+            distortion: Distortion::from_opencv([-0.125, 0.0625, 0.0009765625, -0.00048828125, -0.015625]),
+        },
+        // (40, 81, 4080) / 4081 is a unit vector exactly: a Pythagorean quadruple.
+        laser: LaserLine {
+            origin_m: [-0.0405, -0.1055, 0.0],
+            direction: [40.0 / 4081.0, 81.0 / 4081.0, 4080.0 / 4081.0],
+        },
+        laser_covariance: [
+            [4.0e-8, 1.0e-9, 0.0, 0.0],
+            [1.0e-9, 9.0e-8, 0.0, 0.0],
+            [0.0, 0.0, 2.5e-9, 0.0],
+            [0.0, 0.0, 0.0, 2.5e-9],
+        ],
+        // 2026-06-01 09:30:00 UTC
+        made_utc_s: 1_780_306_200,
+        water_depth_m: Some(4.5),
+        depth_range_m: Some([0.75, 4.5]),
+        fit: Some(FitQuality {
+            photos_used: 14,
+            photos_total: 16,
+            outliers: 1,
+            residual_rms_px: 0.75,
+            residual_worst_px: 2.25,
+            residual_rms_mm: 0.5,
+            residual_worst_mm: 1.5,
+            span_m: 3.75,
+        }),
+        method: FitMethod::Reprojection,
+        target: Some("checkerboard:14x10@42.17mm"),
+    }
 }
 
 #[cfg(test)]
@@ -456,53 +504,5 @@ mod tests {
         c.camera_identity.serial = Some(&long);
         c.target = Some(&long);
         assert!(matches!(c.sign(&EXAMPLE_SECRET_KEY, &mut buf), Err(FormatError::Unsignable(_))));
-    }
-}
-
-/// The secret key of the worked example in `docs/calib-format.md`: never trust its public
-/// key for real calibrations.
-pub const EXAMPLE_SECRET_KEY: [u8; 32] = *b"fslcal example key, not a secret";
-
-/// The worked example of `docs/calib-format.md`: a TG-6 calibration of unit FSL-03.
-pub fn example() -> UnitFile<'static> {
-    UnitFile {
-        unit: "FSL-03",
-        camera_identity: CameraIdentity { make: "OLYMPUS CORPORATION", model: "TG-6", serial: Some("BJ7654321") },
-        camera: CameraModel {
-            width_px: 4000,
-            height_px: 3000,
-            fx_px: 2912.5,
-            fy_px: 2913.25,
-            cx_px: 2004.75,
-            cy_px: 1497.5,
-            distortion: Distortion::from_opencv([-0.125, 0.0625, 0.0009765625, -0.00048828125, -0.015625]),
-        },
-        // (40, 81, 4080) / 4081 is a unit vector exactly: a Pythagorean quadruple.
-        laser: LaserLine {
-            origin_m: [-0.0405, -0.1055, 0.0],
-            direction: [40.0 / 4081.0, 81.0 / 4081.0, 4080.0 / 4081.0],
-        },
-        laser_covariance: [
-            [4.0e-8, 1.0e-9, 0.0, 0.0],
-            [1.0e-9, 9.0e-8, 0.0, 0.0],
-            [0.0, 0.0, 2.5e-9, 0.0],
-            [0.0, 0.0, 0.0, 2.5e-9],
-        ],
-        // 2026-06-01 09:30:00 UTC
-        made_utc_s: 1_780_306_200,
-        water_depth_m: Some(4.5),
-        depth_range_m: Some([0.75, 4.5]),
-        fit: Some(FitQuality {
-            photos_used: 14,
-            photos_total: 16,
-            outliers: 1,
-            residual_rms_px: 0.75,
-            residual_worst_px: 2.25,
-            residual_rms_mm: 0.5,
-            residual_worst_mm: 1.5,
-            span_m: 3.75,
-        }),
-        method: FitMethod::Reprojection,
-        target: Some("checkerboard:14x10@42.17mm"),
     }
 }
