@@ -93,6 +93,7 @@ fn calibration(laser: LaserLine) -> Calibration {
         depth_range_m: Some((0.45, 2.2)),
         unit: None,
         camera_serial: None,
+        focal_length_mm: None,
         source: "test".into(),
     }
 }
