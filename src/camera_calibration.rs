@@ -67,6 +67,20 @@ pub struct CameraPhotoReport {
     pub corners_found: Option<usize>,
     /// Residual length beyond which this photo's corners were outliers.
     pub corner_limit_px: Option<f64>,
+    /// The corners as detected, with their residuals; kept for the HTML report, not the JSON.
+    #[serde(skip)]
+    pub corners: Option<CornerResiduals>,
+}
+
+/// One photo's detected corners (row by row) with their residuals under the final camera:
+/// observed minus projected, pixels, from the solve's pose (used photos) or the photo's own
+/// pose (rejected photos).
+#[derive(Clone, Debug)]
+pub struct CornerResiduals {
+    pub corners_px: Vec<Vec2>,
+    pub residuals_px: Vec<Vec2>,
+    /// Whether each corner was in the final solve.
+    pub inlier: Vec<bool>,
 }
 
 /// Everything `fslcal camera` reports.
@@ -216,8 +230,10 @@ fn report(
             corners_used: None,
             corners_found: None,
             corner_limit_px: None,
+            corners: None,
         })
         .collect();
+    let pose_index: std::collections::HashMap<usize, usize> = fit.inliers.used_views().enumerate().map(|(k, v)| (v, k)).collect();
     let mut inlier_lengths = Vec::new();
     let (mut worst_px, mut worst_photo) = (0.0, 0);
     for (v, &photo) in found.iter().enumerate() {
@@ -235,6 +251,13 @@ fn report(
                 r.worst_px = Some(worst);
                 r.corners_used = Some(kept.len());
                 r.corner_limit_px = Some(corner_limit_px(lengths, &job.rules));
+                if let Some(&k) = pose_index.get(&v) {
+                    r.corners = Some(CornerResiduals {
+                        corners_px: views[v].image_px.clone(),
+                        residuals_px: residuals_px(&camera, &fit.solve.poses[k], &views[v]),
+                        inlier: fit.inliers.corners[v].clone(),
+                    });
+                }
                 inlier_lengths.extend(kept);
             }
             None => {
@@ -244,6 +267,17 @@ fn report(
                 if let Ok(Some(pose)) = vision::solve_pose(&camera, &views[v].object_m, &views[v].image_px) {
                     r.rms_px = Some(pose.rms_px);
                     r.worst_px = Some(pose.worst_px);
+                    let residuals = views[v]
+                        .object_m
+                        .iter()
+                        .zip(&views[v].image_px)
+                        .map(|(o, i)| camera.project(&pose.to_camera(o)).map_or(Vec2::new(f64::INFINITY, f64::INFINITY), |q| i - q))
+                        .collect();
+                    r.corners = Some(CornerResiduals {
+                        corners_px: views[v].image_px.clone(),
+                        residuals_px: residuals,
+                        inlier: vec![false; views[v].image_px.len()],
+                    });
                 }
             }
         }

@@ -11,8 +11,8 @@ use crate::dot::{find_dot_candidates, ChannelOrder, ColourView, DotCandidate, Do
 use crate::laser_fit::{self, DotObservation, FitError, Gates, LaserFit, Method};
 use crate::vision::{self, EncodedPhoto, Photo, SlateModel, TargetPose};
 use calib_targets::Checkerboard;
+use fslcal_core::{CameraModel, LaserLine, Plane, Vec2, Vec3};
 use std::sync::Arc;
-use fslcal_core::{CameraModel, LaserLine, Vec2, Vec3};
 use rayon::prelude::*;
 use serde::Serialize;
 use std::collections::HashMap;
@@ -39,6 +39,8 @@ pub struct PhotoEvidence {
     pub pose: TargetPose,
     /// The physical board's outline in the image (padded), pixels.
     pub board_outline_px: Vec<Vec2>,
+    /// A checkerboard's inner corners as refined, row by row (a slate has none), pixels.
+    pub corners_px: Vec<Vec2>,
     /// Dot candidates on the board, best first.
     pub candidates: Vec<DotCandidate>,
     pub dot_source: DotSource,
@@ -96,6 +98,17 @@ impl PixelCrop {
 /// Outcome of the per-photo stage: evidence, or the reason the photo cannot be used.
 pub type PhotoResult = Result<PhotoEvidence, String>;
 
+/// Where a photo's target was seen: what the HTML report draws on the thumbnail.
+#[derive(Clone, Debug)]
+pub struct BoardInImage {
+    /// The physical target's outline from its pose, padded as the dot search is, pixels.
+    pub outline_px: Vec<Vec2>,
+    /// A checkerboard's inner corners as refined (a slate has none), pixels.
+    pub corners_px: Vec<Vec2>,
+    /// The target's plane from its pose, camera frame.
+    pub plane: Plane,
+}
+
 /// Per-photo line of the report.
 #[derive(Clone, Debug, Serialize)]
 pub struct PhotoReport {
@@ -111,6 +124,9 @@ pub struct PhotoReport {
     pub residual_px: Option<f64>,
     /// RMS reprojection error of the board's corners for this photo's pose, pixels.
     pub board_rms_px: Option<f64>,
+    /// The board as detected, when it was; kept for the HTML report, not the JSON.
+    #[serde(skip)]
+    pub board: Option<BoardInImage>,
     /// Feature inliers of a slate's match (checkerboards: none).
     pub target_inliers: Option<usize>,
 }
@@ -253,6 +269,8 @@ pub struct LocatedTarget {
     pub found_at_factor: u32,
     /// Feature inliers of a slate's match (a checkerboard has none).
     pub inliers: Option<usize>,
+    /// A checkerboard's inner corners as refined, row by row (a slate has none).
+    pub corners_px: Vec<Vec2>,
 }
 
 /// Finds `target` in the photo at `path` and solves its pose. `Ok(Err(reason))` when the
@@ -275,7 +293,7 @@ pub fn locate_target(target: &Target, camera: &CameraModel, path: &Path) -> Resu
         Target::Slate(model) => match vision::find_slate(model, &encoded, camera) {
             Ok(d) => {
                 let outline = target_outline_px(camera, &model.slate.outline_m(), 0.02 * model.slate.width_m.max(model.slate.height_m), &d.pose);
-                Ok(LocatedTarget { pose: d.pose, outline_px: outline, photo: d.photo, found_at_factor: d.found_at_factor, inliers: Some(d.inliers) })
+                Ok(LocatedTarget { pose: d.pose, outline_px: outline, photo: d.photo, found_at_factor: d.found_at_factor, inliers: Some(d.inliers), corners_px: Vec::new() })
             }
             Err(e) => Err(strip_path(&e.to_string(), &file)),
         },
@@ -307,7 +325,7 @@ fn locate_board(board: &Checkerboard, camera: &CameraModel, encoded: &EncodedPho
         ));
     }
     let outline = board_outline_px(camera, board, &pose);
-    Ok(LocatedTarget { pose, outline_px: outline, photo, found_at_factor: search.found_at_factor, inliers: None })
+    Ok(LocatedTarget { pose, outline_px: outline, photo, found_at_factor: search.found_at_factor, inliers: None, corners_px: corners })
 }
 
 /// Settings of one run.
@@ -386,7 +404,7 @@ pub fn examine_photo(job: &LaserJob, path: &Path) -> Result<PhotoResult, LaserEr
         Ok(l) => l,
         Err(reason) => return Ok(Err(reason)),
     };
-    let LocatedTarget { pose, outline_px: outline, photo, found_at_factor, inliers } = located;
+    let LocatedTarget { pose, outline_px: outline, photo, found_at_factor, inliers, corners_px: corners } = located;
     let (candidates, dot_source) = match job.hand_dots.get(path) {
         Some(px) => (vec![hand_candidate(px)], DotSource::Hand),
         None => {
@@ -400,6 +418,7 @@ pub fn examine_photo(job: &LaserJob, path: &Path) -> Result<PhotoResult, LaserEr
         image_size: (photo.width(), photo.height()),
         pose,
         board_outline_px: outline,
+        corners_px: corners,
         candidates,
         dot_source,
         found_at_factor,
@@ -591,6 +610,7 @@ fn report_photos(paths: &[PathBuf], results: &[PhotoResult], fit: Option<&LaserF
                 distance_m: None,
                 residual_px: None,
                 board_rms_px: None,
+                board: None,
                 target_inliers: None,
             };
             let e = match r {
@@ -599,6 +619,11 @@ fn report_photos(paths: &[PathBuf], results: &[PhotoResult], fit: Option<&LaserF
             };
             let mut rep = skipped(String::new());
             rep.board_rms_px = Some(e.pose.rms_px);
+            rep.board = Some(BoardInImage {
+                outline_px: e.board_outline_px.clone(),
+                corners_px: e.corners_px.clone(),
+                plane: e.pose.plane(),
+            });
             rep.target_inliers = e.target_inliers;
             let Some(pf) = fit.and_then(|f| f.photos[i].as_ref()) else {
                 rep.reason = Some(match (e.candidates.is_empty(), fit) {

@@ -94,6 +94,33 @@ pub struct LaserFit {
     pub distance_sigma_m: Vec<(f64, f64)>,
 }
 
+impl LaserFit {
+    /// The origin with its 1-sigma, as summaries and reports print it.
+    pub fn origin_text(&self) -> String {
+        let (o, c) = (&self.laser.origin_m, &self.covariance);
+        format!(
+            "({:.2}, {:.2}, 0) mm  ±({:.2}, {:.2}) mm 1-sigma",
+            o[0] * 1e3,
+            o[1] * 1e3,
+            c[0][0].sqrt() * 1e3,
+            c[1][1].sqrt() * 1e3
+        )
+    }
+
+    /// The direction with its 1-sigma angle and its angle to the optical axis.
+    pub fn direction_text(&self) -> String {
+        let (d, c) = (&self.laser.direction, &self.covariance);
+        format!(
+            "({:.5}, {:.5}, {:.5})  ±{:.4} deg 1-sigma; {:.3} deg from the optical axis",
+            d[0],
+            d[1],
+            d[2],
+            (c[2][2] + c[3][3]).sqrt().atan().to_degrees(),
+            self.laser.angle_to_optical_axis().to_degrees()
+        )
+    }
+}
+
 /// Why a fit was refused.
 #[derive(Debug, thiserror::Error, PartialEq)]
 pub enum FitError {

@@ -23,6 +23,7 @@ pub mod laser_calibration;
 pub mod laser_fit;
 pub mod photo_identity;
 pub mod raw;
+pub mod report;
 pub mod unit_files;
 pub mod unit_registry;
 pub mod utc_time;

@@ -11,7 +11,7 @@ use crate::calibration::Calibration;
 use crate::dot::{DotDetectorParams, SearchRegion};
 use crate::dot_on_line::{laser_image_polyline, DEFAULT_BAND_HALF_WIDTH_PX, DEFAULT_SEARCH_DEPTHS_M};
 use crate::laser_calibration::{locate_target, LaserError, Target};
-use fslcal_core::{Plane, Vec3};
+use fslcal_core::{Plane, Vec2, Vec3};
 use rayon::prelude::*;
 use serde::Serialize;
 use std::path::PathBuf;
@@ -57,6 +57,12 @@ pub struct PhotoValidation {
     pub dot_px: Option<[f64; 2]>,
     pub target_inliers: Option<usize>,
     pub reason: Option<String>,
+    /// The target's outline and the length's end points in the image, pixels; kept for the
+    /// HTML report, not the JSON.
+    #[serde(skip)]
+    pub target_outline_px: Vec<Vec2>,
+    #[serde(skip)]
+    pub ends_px: Option<[Vec2; 2]>,
 }
 
 /// The run's result.
@@ -148,6 +154,8 @@ pub fn validate(job: &ValidationJob, photos: &[PathBuf], progress: &(dyn Fn() + 
                 dot_px: None,
                 target_inliers: None,
                 reason: None,
+                target_outline_px: Vec::new(),
+                ends_px: None,
             };
             let located = locate_target(&job.target, camera, path);
             progress();
@@ -159,6 +167,7 @@ pub fn validate(job: &ValidationJob, photos: &[PathBuf], progress: &(dyn Fn() + 
                 }
             };
             out.target_inliers = t.inliers;
+            out.target_outline_px = t.outline_px.clone();
             // The dot: on the target, near the calibrated laser's image (a band wide enough
             // for a wrong calibration's dot, which is what this command must catch).
             let region = SearchRegion { polygon: t.outline_px.clone(), band: Some((line.clone(), DEFAULT_BAND_HALF_WIDTH_PX)) };
@@ -197,6 +206,7 @@ pub fn validate(job: &ValidationJob, photos: &[PathBuf], progress: &(dyn Fn() + 
                 out.reason = Some("the length's end points are behind the camera".into());
                 return Ok(out);
             };
+            out.ends_px = Some([a_px, b_px]);
             let measured = match job.rule {
                 LengthRule::FrontoParallel => camera.length_at_depth(a_px, b_px, fix.depth_m),
                 LengthRule::TiltedPlane => {

@@ -100,13 +100,36 @@ fn a_failed_gate_exits_1_and_writes_nothing() {
     let set = set();
     let out = set.path().join("rejected.json");
     let mut args = base_args(set);
+    let report = set.path().join("rejected-report");
     args.extend(["--baseline-range-mm".into(), "50,60".into(), "--out".into(), out.display().to_string()]);
+    args.extend(["--report".into(), report.display().to_string()]);
     let o = fslcal(&args.iter().map(String::as_str).collect::<Vec<_>>());
     assert_eq!(o.status.code(), Some(1));
     let line = stderr_line(&o);
     assert!(line.contains("rejected") && line.contains("baseline"), "{line}");
     assert!(String::from_utf8_lossy(&o.stdout).contains("FAIL  camera-to-laser baseline"));
     assert!(!out.exists(), "a rejected calibration must not be written");
+    // The report is written all the same: a rejection is when it is read.
+    let html = std::fs::read_to_string(report.join("index.html")).expect("report of a rejected run");
+    assert!(html.contains("REJECTED: camera-to-laser baseline 112."), "verdict names the failed gate");
+    assert!(html.contains("<td class=\"bad\">FAIL</td>"));
+    assert_eq!(html.matches("<img src=\"thumbs/").count(), 6);
+}
+
+#[test]
+fn a_refused_fit_still_writes_its_report() {
+    let set = set();
+    let report = set.path().join("refused-report");
+    let mut args = base_args(set);
+    args.truncate(5 + 2);
+    args.extend(["--report".into(), report.display().to_string()]);
+    let o = fslcal(&args.iter().map(String::as_str).collect::<Vec<_>>());
+    assert_eq!(o.status.code(), Some(1));
+    assert!(stderr_line(&o).contains("cannot fit the laser: only 2 photo(s)"), "{}", stderr_line(&o));
+    let html = std::fs::read_to_string(report.join("index.html")).expect("report of a refused fit");
+    assert!(html.contains("NOT FITTED: only 2 photo(s) with both a target and a dot"));
+    assert_eq!(html.matches("<img src=\"thumbs/").count(), 2);
+    assert_eq!(html.matches("<img src=\"plots/").count(), 0, "no fit, no plots of one");
 }
 
 #[test]

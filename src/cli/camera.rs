@@ -7,6 +7,7 @@ use crate::camera_calibration::{calibrate, CameraCalibration, CameraJob};
 use crate::camera_file::{self, CameraFileExtras};
 use crate::photo_identity::photos_exif;
 use crate::camera_fit::FRAME_CORNER_SHARE;
+use crate::report::{self, camera::CameraReport};
 use anyhow::{bail, Context};
 use calib_targets::Checkerboard;
 use serde_json::json;
@@ -37,6 +38,12 @@ pub struct CameraArgs {
     #[arg(long, value_name = "CAMERA")]
     out: Option<PathBuf>,
 
+    /// Write an HTML report into this folder (created if missing): `index.html` with the
+    /// residual vectors, per-photo RMS, the frame's coverage and a thumbnail of every photo,
+    /// opened offline in any browser.
+    #[arg(long, value_name = "DIR")]
+    report: Option<PathBuf>,
+
     /// Calibration photos (JPEG or PNG), all from the same camera mode.
     #[arg(required = true, value_name = "PHOTOS")]
     photos: Vec<PathBuf>,
@@ -61,6 +68,13 @@ pub fn run(args: CameraArgs) -> anyhow::Result<ExitCode> {
         println!("{}", serde_json::to_string_pretty(&json_report(&args, &cal))?);
     } else {
         print!("{}", summary(&args, &cal));
+    }
+    if let Some(dir) = &args.report {
+        let index = report::camera::write(dir, &CameraReport { board: &args.board, calibration: &cal })
+            .with_context(|| format!("{}: cannot write the report", dir.display()))?;
+        if !args.json {
+            eprintln!("report: {}", index.display());
+        }
     }
     if let Some(out) = &args.out {
         // The body and zoom the photos agree on go into the file, so that `fslcal laser`

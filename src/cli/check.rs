@@ -5,6 +5,7 @@ use crate::photo_identity::ExpectedCamera;
 use super::progress;
 use crate::calibration;
 use crate::drift_check::{check, DriftCheck, FLAG_SIGMAS};
+use crate::report::{self, check::CheckReport};
 use anyhow::{bail, Context};
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
@@ -28,6 +29,12 @@ pub struct CheckArgs {
     /// Print one JSON object instead of the summary.
     #[arg(long)]
     json: bool,
+
+    /// Write an HTML report into this folder (created if missing): each photo's offset
+    /// against its flag threshold, and a thumbnail with the dot and the calibrated line.
+    /// Written also when drift is found.
+    #[arg(long, value_name = "DIR")]
+    report: Option<PathBuf>,
 
     /// Photos with the laser dot in them.
     #[arg(required = true, value_name = "PHOTOS")]
@@ -65,6 +72,12 @@ pub fn run(args: CheckArgs) -> anyhow::Result<ExitCode> {
         println!("{}", serde_json::to_string_pretty(&v)?);
     } else {
         print!("{}", summary(&r));
+    }
+    if let Some(dir) = &args.report {
+        let index = report::check::write(dir, &CheckReport::of(&r, &cal)).with_context(|| format!("{}: cannot write the report", dir.display()))?;
+        if !args.json {
+            eprintln!("report: {}", index.display());
+        }
     }
     if r.drifted {
         bail!(

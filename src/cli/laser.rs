@@ -9,6 +9,7 @@ use fslcal_core::unit_file::{CameraIdentity, FitMethod, FitQuality, UnitFile};
 use crate::dot::DotDetectorParams;
 use crate::laser_calibration::{calibrate, HandDots, LaserCalibration, LaserError, LaserJob, PhotoReport, Target, TargetArg};
 use crate::laser_fit::{Gates, Method};
+use crate::report::{self, laser::{LaserOutcome, LaserReport}};
 use anyhow::{bail, Context};
 use crate::calibration::camera_json;
 use super::body_check::BodyCheckArgs;
@@ -69,6 +70,12 @@ pub struct LaserArgs {
     /// ends in `.fslcal` (needs --unit and --key), JSON otherwise.
     #[arg(long, value_name = "FILE")]
     out: Option<PathBuf>,
+
+    /// Write an HTML report into this folder (created if missing): `index.html` with the
+    /// plots and a thumbnail of every photo, opened offline in any browser. Written also
+    /// when a gate fails or the fit is refused, since that is when it is needed.
+    #[arg(long, value_name = "DIR")]
+    report: Option<PathBuf>,
 
     #[command(flatten)]
     signing: SigningArgs,
@@ -139,6 +146,8 @@ pub fn run(args: LaserArgs) -> anyhow::Result<ExitCode> {
             if !args.json {
                 eprint!("{}", photo_table(&photos));
             }
+            let outcome = LaserOutcome::Refused { reason: source.to_string(), photos: &photos };
+            write_report(&args, &job, outcome)?;
             bail!("cannot fit the laser: {source}");
         }
         Err(e) => return Err(e.into()),
@@ -149,6 +158,7 @@ pub fn run(args: LaserArgs) -> anyhow::Result<ExitCode> {
     } else {
         print!("{}", summary(&args, &job, &cal));
     }
+    write_report(&args, &job, LaserOutcome::Fitted(&cal))?;
     if !cal.accepted() {
         let failed: Vec<String> =
             cal.gates.iter().filter(|g| !g.pass).map(|g| format!("{} {} (limit {})", g.name, g.figure, g.limit)).collect();
@@ -181,6 +191,17 @@ pub fn run(args: LaserArgs) -> anyhow::Result<ExitCode> {
         }
     }
     Ok(ExitCode::SUCCESS)
+}
+
+fn write_report(args: &LaserArgs, job: &LaserJob, outcome: LaserOutcome) -> anyhow::Result<()> {
+    let Some(dir) = &args.report else { return Ok(()) };
+    let report = LaserReport { job, camera_file: &args.camera, outcome };
+    let index = report::laser::write(dir, &report).with_context(|| format!("{}: cannot write the report", dir.display()))?;
+    if !args.json {
+        // On stderr: a refused fit's summary went there too, and stdout may be piped.
+        eprintln!("report: {}", index.display());
+    }
+    Ok(())
 }
 
 fn json_report(args: &LaserArgs, job: &LaserJob, cal: &LaserCalibration) -> serde_json::Value {
@@ -320,23 +341,8 @@ fn summary(args: &LaserArgs, job: &LaserJob, cal: &LaserCalibration) -> String {
         "dots: {:.2}-{:.2} m deep, spanning {:.2} m along the laser\n",
         f.depth_range_m.0, f.depth_range_m.1, f.span_m
     );
-    let c = &f.covariance;
-    s += &format!(
-        "laser origin    ({:.2}, {:.2}, 0) mm  ±({:.2}, {:.2}) mm 1-sigma; baseline {:.1} mm\n",
-        l.origin_m[0] * 1e3,
-        l.origin_m[1] * 1e3,
-        c[0][0].sqrt() * 1e3,
-        c[1][1].sqrt() * 1e3,
-        l.baseline_m() * 1e3
-    );
-    s += &format!(
-        "laser direction ({:.5}, {:.5}, {:.5})  ±{:.4} deg 1-sigma; {:.3} deg from the optical axis\n",
-        l.direction[0],
-        l.direction[1],
-        l.direction[2],
-        (c[2][2] + c[3][3]).sqrt().atan().to_degrees(),
-        l.angle_to_optical_axis().to_degrees()
-    );
+    s += &format!("laser origin    {}; baseline {:.1} mm\n", f.origin_text(), l.baseline_m() * 1e3);
+    s += &format!("laser direction {}\n", f.direction_text());
     s += "predicted 1-sigma distance error from this calibration:";
     for (z, sig) in &f.distance_sigma_m {
         s += &format!("  at {z:.0} m: {:.1} mm ({:.2}%)", sig * 1e3, 100.0 * sig / z);

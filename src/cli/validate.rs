@@ -6,6 +6,7 @@ use super::progress;
 use crate::calibration;
 use crate::dot::DotDetectorParams;
 use crate::laser_calibration::TargetArg;
+use crate::report::{self, validate::ValidationReport};
 use crate::validation::{validate, LengthRule, Validation, ValidationJob};
 use anyhow::{bail, Context};
 use std::path::{Path, PathBuf};
@@ -47,6 +48,12 @@ pub struct ValidateArgs {
     #[arg(long)]
     json: bool,
 
+    /// Write an HTML report into this folder (created if missing): each photo's length
+    /// error against distance with the tolerance band, and a thumbnail of every photo.
+    /// Written also when the check fails.
+    #[arg(long, value_name = "DIR")]
+    report: Option<PathBuf>,
+
     /// Photos of the target with the laser dot on it, ideally at several distances.
     #[arg(required = true, value_name = "PHOTOS")]
     photos: Vec<PathBuf>,
@@ -80,6 +87,13 @@ pub fn run(args: ValidateArgs) -> anyhow::Result<ExitCode> {
         println!("{}", serde_json::to_string_pretty(&json_report(&v))?);
     } else {
         print!("{}", summary(&v));
+    }
+    if let Some(dir) = &args.report {
+        let page = ValidationReport::of(&v, &args.cal, job.target.to_string());
+        let index = report::validate::write(dir, &page).with_context(|| format!("{}: cannot write the report", dir.display()))?;
+        if !args.json {
+            eprintln!("report: {}", index.display());
+        }
     }
     if !v.pass {
         bail!("calibration failed validation: {}", failure(&v));
