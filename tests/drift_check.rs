@@ -4,7 +4,7 @@
 
 mod common;
 
-use calib_targets::rig::{fsl_laser, tg6_camera};
+use calib_targets::rig::fsl_laser;
 use calib_targets::scene::Water;
 use common::slate_set;
 use fslcal::calibration::Calibration;
@@ -23,16 +23,7 @@ fn knocked_set() -> &'static SceneSet {
 /// direction 0.006 deg per axis).
 pub fn calibration() -> Calibration {
     let (so, sd) = (0.5e-3f64, 1e-4f64);
-    Calibration {
-        camera: tg6_camera(),
-        laser: fsl_laser(),
-        laser_covariance: [[so * so, 0.0, 0.0, 0.0], [0.0, so * so, 0.0, 0.0], [0.0, 0.0, sd * sd, 0.0], [0.0, 0.0, 0.0, sd * sd]],
-        depth_range_m: Some((0.45, 2.2)),
-        unit: None,
-        camera_serial: None,
-        focal_length_mm: None,
-        source: "test".into(),
-    }
+    common::tg6_calibration(fsl_laser(), so * so, sd * sd)
 }
 
 /// The laser knocked by `deg` out of the plane of the camera centre and the beam, turning

@@ -85,17 +85,9 @@ fn laser_fit_from_slate_photos_meets_the_accuracy_targets() {
     assert!(origin_mm <= 5.0, "origin error {origin_mm:.3} mm");
 }
 
+/// The slate fit's calibration: origin 0.1 mm and slope 3e-5 1-sigma per axis.
 fn calibration(laser: LaserLine) -> Calibration {
-    Calibration {
-        camera: tg6_camera(),
-        laser,
-        laser_covariance: [[1e-8, 0.0, 0.0, 0.0], [0.0, 1e-8, 0.0, 0.0], [0.0, 0.0, 1e-9, 0.0], [0.0, 0.0, 0.0, 1e-9]],
-        depth_range_m: Some((0.45, 2.2)),
-        unit: None,
-        camera_serial: None,
-        focal_length_mm: None,
-        source: "test".into(),
-    }
+    common::tg6_calibration(laser, 1e-8, 1e-9)
 }
 
 /// The laser turned by `deg` within the plane of the camera centre and the beam: the error
