@@ -75,9 +75,13 @@ pub fn check_photos(expected: &ExpectedCamera, photos: &[impl AsRef<Path>], allo
     Ok(warnings)
 }
 
+/// Each photo's EXIF (`None` where it has none), and the body serial and focal length the
+/// photos agree on.
+pub type PhotosExif = (Vec<Option<PhotoExif>>, Option<String>, Option<f64>);
+
 /// The photos' EXIF, and the body serial and focal length they agree on (what a later
 /// `--cal` checks photos against).
-pub fn photos_exif(photos: &[impl AsRef<Path>]) -> (Vec<Option<PhotoExif>>, Option<String>, Option<f64>) {
+pub fn photos_exif(photos: &[impl AsRef<Path>]) -> PhotosExif {
     let exif: Vec<Option<PhotoExif>> = photos.iter().map(|p| PhotoExif::read_file(p.as_ref())).collect();
     let agreed = |get: &dyn Fn(&PhotoExif) -> Option<String>| -> Option<String> {
         let mut values = exif.iter().map(|e| e.as_ref().and_then(get));

@@ -13,7 +13,7 @@ use crate::report::{self, laser::{LaserOutcome, LaserReport}};
 use anyhow::{bail, Context};
 use crate::calibration::camera_json;
 use super::body_check::BodyCheckArgs;
-use crate::photo_identity::photos_exif;
+use crate::photo_identity::{photos_exif, PhotosExif};
 use fslcal_core::CameraModel;
 use serde_json::json;
 use std::path::{Path, PathBuf};
@@ -152,7 +152,9 @@ pub fn run(args: LaserArgs) -> anyhow::Result<ExitCode> {
         }
         Err(e) => return Err(e.into()),
     };
-    let report = json_report(&args, &job, &cal);
+    // Read once: the JSON reports it and a signed file records the body and depth from it.
+    let identity = photos_exif(&args.photos);
+    let report = json_report(&args, &job, &cal, &identity);
     if args.json {
         println!("{}", serde_json::to_string_pretty(&report)?);
     } else {
@@ -167,10 +169,10 @@ pub fn run(args: LaserArgs) -> anyhow::Result<ExitCode> {
     }
     if let Some(out) = signed_out {
         let mut signing_args = args.signing.clone();
-        let (exif, serial, _) = photos_exif(&args.photos);
+        let (exif, serial, _) = &identity;
         // The body the photos agree on is the body calibrated: record it so photos from
         // another body are refused later.
-        signing_args.camera_serial = signing_args.camera_serial.or(serial);
+        signing_args.camera_serial = signing_args.camera_serial.or_else(|| serial.clone());
         // Where the calibration was made, from the TG-6's depth gauge when the options do
         // not say: the median photo's, as divers drift a metre or two while shooting.
         if signing_args.water_depth_m.is_none() {
@@ -204,10 +206,10 @@ fn write_report(args: &LaserArgs, job: &LaserJob, outcome: LaserOutcome) -> anyh
     Ok(())
 }
 
-fn json_report(args: &LaserArgs, job: &LaserJob, cal: &LaserCalibration) -> serde_json::Value {
+fn json_report(args: &LaserArgs, job: &LaserJob, cal: &LaserCalibration, identity: &PhotosExif) -> serde_json::Value {
     let camera = &job.camera;
     let f = &cal.fit;
-    let (exif, serial, focal) = photos_exif(&args.photos);
+    let (exif, serial, focal) = identity;
     let sigma: serde_json::Map<String, serde_json::Value> =
         f.distance_sigma_m.iter().map(|(z, s)| (format!("{z}"), json!(s))).collect();
     json!({
