@@ -1,36 +1,30 @@
 //! fslcal: field calibration for FishSense Lite (a TG-6 in a housing with a laser pointer).
 //!
 //! The geometry and the calibration file live in `fslcal-core` (no_std, shared with the
-//! camera companion). This crate adds what needs std: finding dots, fitting the laser,
-//! reading camera files, the OpenCV-backed vision module, and the CLI.
+//! camera companion). This crate adds what needs std, grouped along the chain a calibration
+//! follows, photo → target pose → dot → laser fit → signed file → use:
+//!
+//! - [`photo`]: what a photo says before any target is found (EXIF, body identity, raw).
+//! - [`vision`]: everything that touches OpenCV (decoding, boards, slates, poses, intrinsics).
+//! - [`dot`]: finding the laser dot and deciding which blob it is.
+//! - [`laser`]: the laser chain over photos, the fit and its gates.
+//! - [`camera`]: camera intrinsics, their residuals and the OpenCV YAML file.
+//! - [`units`]: keys, signed unit files on disk, the registry, the lab's `.pkg`.
+//! - [`calibration`]: using a calibration: loading it, comparing two, validate and drift.
+//! - [`fish`]: measuring fish with a calibration.
+//! - [`report`]: the HTML reports; [`cli`]: the commands.
 
 pub mod atomic_file;
 pub mod calibration;
-pub mod calibration_change;
-#[cfg(feature = "vision")]
-pub mod camera_calibration;
-pub mod camera_file;
-pub mod camera_fit;
+pub mod camera;
 pub mod cli;
 pub mod dot;
-pub mod exif;
-pub mod fishsense_pkg;
-pub mod keys;
-pub mod dot_on_line;
 pub mod fish;
-#[cfg(feature = "vision")]
-pub mod laser_calibration;
-pub mod laser_fit;
-pub mod photo_identity;
-pub mod raw;
+pub mod laser;
+pub mod photo;
 pub mod report;
-pub mod unit_files;
-pub mod unit_registry;
+pub mod units;
 pub mod utc_time;
-#[cfg(feature = "vision")]
-pub mod validation;
-#[cfg(feature = "vision")]
-pub mod drift_check;
 #[cfg(feature = "vision")]
 pub mod vision;
 

@@ -1,7 +1,7 @@
 //! `fslcal camera` as a diver runs it, on OpenCV's sample photos: JSON keys, a camera file
 //! that OpenCV itself and `fslcal laser` read, and one-line errors that leave no file.
 
-use fslcal::camera_file;
+use fslcal::camera::opencv_yaml;
 use opencv::core::{FileStorage, FileStorage_Mode, Mat};
 use opencv::prelude::*;
 use std::path::{Path, PathBuf};
@@ -96,7 +96,7 @@ fn json_keys_and_a_camera_file_opencv_and_laser_read() {
     assert!((e - f(&v["rms_px"])).abs() < 1e-15);
 
     // fslcal's reader (what `laser --camera` uses) gives the same camera ...
-    let (c, _) = camera_file::read(&out).unwrap();
+    let (c, _) = opencv_yaml::read(&out).unwrap();
     assert_eq!((c.fx_px, c.fy_px, c.cx_px, c.cy_px), (fx, fy, cx, cy));
     assert_eq!(c.distortion.to_opencv().as_slice(), dist.as_slice());
     // ... and `fslcal laser --camera` gets past the camera file to the photos (these have no

@@ -5,9 +5,9 @@ mod common;
 
 use calib_targets::Checkerboard;
 use common::camera_figures;
-use fslcal::camera_calibration::{calibrate, solve_views, CameraCalibration, CameraJob};
-use fslcal::camera_fit::{one_sigma_from_opencv46, residuals_px, rms_px, ViewPoints};
-use fslcal::camera_file;
+use fslcal::camera::calibrate::{calibrate, solve_views, CameraCalibration, CameraJob};
+use fslcal::camera::residuals::{one_sigma_from_opencv46, residuals_px, rms_px, ViewPoints};
+use fslcal::camera::opencv_yaml;
 use fslcal::vision::{calibrate_intrinsics, SolveOptions};
 use fslcal_core::{Vec2, Vec3};
 use std::path::{Path, PathBuf};
@@ -176,7 +176,7 @@ fn left_set() -> &'static CameraCalibration {
 fn opencv_left_set_lands_on_the_small_window_answer() {
     let cal = left_set();
     let c = &cal.camera;
-    let (published, _) = camera_file::read(&data("opencv-samples/left_intrinsics.yml")).unwrap();
+    let (published, _) = opencv_yaml::read(&data("opencv-samples/left_intrinsics.yml")).unwrap();
     eprintln!("left set: {}", camera_figures(cal));
     eprintln!(
         "left set: fx {:.2} fy {:.2} cx {:.2} cy {:.2} (1-sigma {:.2} {:.2} {:.2} {:.2}); dist {:?}",

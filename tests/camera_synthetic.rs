@@ -7,13 +7,13 @@ mod common;
 use calib_targets::scene::{camera_scene_set, Water};
 use calib_targets::Checkerboard;
 use common::{camera_figures, render_set};
-use fslcal::camera_calibration::{calibrate, CameraJob};
-use fslcal::camera_file;
+use fslcal::camera::calibrate::{calibrate, CameraJob};
+use fslcal::camera::opencv_yaml;
 
 #[test]
 fn rendered_scenes_recover_the_true_intrinsics() {
     let set = render_set("camera-clear", &camera_scene_set(10, 5, Water::Clear));
-    let (truth, _) = camera_file::read(&set.camera_file).unwrap();
+    let (truth, _) = opencv_yaml::read(&set.camera_file).unwrap();
     let cal = calibrate(&CameraJob::new(Checkerboard::fishsense()), &set.photos, &|| {}).unwrap_or_else(|e| panic!("{e}"));
     let c = &cal.camera;
     let fx_err = (c.fx_px / truth.fx_px - 1.0) * 100.0;

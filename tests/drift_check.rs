@@ -8,7 +8,7 @@ use calib_targets::rig::fsl_laser;
 use calib_targets::scene::Water;
 use common::slate_set;
 use fslcal::calibration::Calibration;
-use fslcal::drift_check::check;
+use fslcal::calibration::drift::check;
 use common::SceneSet;
 use fslcal_core::LaserLine;
 use std::process::Command;

@@ -6,10 +6,10 @@ mod common;
 use calib_targets::scene::Water;
 use calib_targets::Checkerboard;
 use common::{laser_set, render_set, SceneSet};
-use fslcal::camera_file;
-use fslcal::dot::DotDetectorParams;
-use fslcal::laser_calibration::{calibrate, HandDots, LaserCalibration, LaserError, LaserJob};
-use fslcal::laser_fit::{angle_deg, FitError, Gates, Method};
+use fslcal::camera::opencv_yaml;
+use fslcal::dot::candidates::DotDetectorParams;
+use fslcal::laser::pipeline::{calibrate, HandDots, LaserCalibration, LaserError, LaserJob};
+use fslcal::laser::fit::{angle_deg, FitError, Gates, Method};
 use fslcal_core::{LaserLine, Vec2};
 use std::sync::OnceLock;
 
@@ -24,7 +24,7 @@ fn murky() -> &'static SceneSet {
 }
 
 fn job(set: &SceneSet, method: Method) -> LaserJob {
-    let (camera, _) = camera_file::read(&set.camera_file).expect("camera file");
+    let (camera, _) = opencv_yaml::read(&set.camera_file).expect("camera file");
     LaserJob {
         camera,
         target: Checkerboard::fishsense().into(),

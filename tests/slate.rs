@@ -8,10 +8,10 @@ use calib_targets::rig::{fsl_laser, tg6_camera};
 use calib_targets::scene::Water;
 use common::{example_slate, example_slate_path, slate_set, SceneSet};
 use fslcal::calibration::Calibration;
-use fslcal::dot::DotDetectorParams;
-use fslcal::laser_calibration::{calibrate, HandDots, LaserJob, TargetArg};
-use fslcal::laser_fit::{angle_deg, Gates, Method};
-use fslcal::validation::{validate, LengthRule, ValidationJob};
+use fslcal::dot::candidates::DotDetectorParams;
+use fslcal::laser::pipeline::{calibrate, HandDots, LaserJob, TargetArg};
+use fslcal::laser::fit::{angle_deg, Gates, Method};
+use fslcal::calibration::validate::{validate, LengthRule, ValidationJob};
 use fslcal_core::{LaserLine, Vec3};
 use std::sync::OnceLock;
 
@@ -21,7 +21,7 @@ fn photos() -> &'static SceneSet {
     SET.get_or_init(|| slate_set("slate-murky", fsl_laser(), (0.45, 2.2), 12, 3, Water::Murky, 2))
 }
 
-fn slate_target() -> fslcal::laser_calibration::Target {
+fn slate_target() -> fslcal::laser::pipeline::Target {
     TargetArg::Slate(example_slate_path()).load().expect("the example slate")
 }
 
@@ -33,7 +33,7 @@ fn slate_poses_match_the_truth_with_inliers_reported() {
     let centre = Vec3::new(0.15, 0.11, 0.0);
     let (mut worst_centre_mm, mut worst_normal_deg, mut least_inliers) = (0.0f64, 0.0f64, usize::MAX);
     for (p, truth) in set.photos.iter().zip(&set.truths) {
-        let located = fslcal::laser_calibration::locate_target(&target, &tg6_camera(), p)
+        let located = fslcal::laser::pipeline::locate_target(&target, &tg6_camera(), p)
             .expect("right size")
             .unwrap_or_else(|why| panic!("{}: {why}", p.display()));
         let pose = truth.t_cam_target.unwrap();
@@ -52,12 +52,12 @@ fn slate_poses_match_the_truth_with_inliers_reported() {
 #[test]
 fn a_photo_without_the_slate_is_refused_with_the_reason() {
     let set = common::render_set("slate-none", &[common::no_board_spec(5)]);
-    let r = fslcal::laser_calibration::locate_target(&slate_target(), &tg6_camera(), &set.photos[0]).expect("right size");
+    let r = fslcal::laser::pipeline::locate_target(&slate_target(), &tg6_camera(), &set.photos[0]).expect("right size");
     let why = r.err().expect("no slate in the photo");
     assert!(why.starts_with("no slate found") || why.starts_with("weak slate match"), "{why}");
 }
 
-fn laser_fit(set: &SceneSet) -> fslcal::laser_calibration::LaserCalibration {
+fn laser_fit(set: &SceneSet) -> fslcal::laser::pipeline::LaserCalibration {
     let job = LaserJob {
         camera: tg6_camera(),
         target: slate_target(),

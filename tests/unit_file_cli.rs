@@ -5,7 +5,7 @@
 mod common;
 
 use calib_targets::scene::Water;
-use fslcal::fishsense_pkg::{LaserPkg, LensPkg};
+use fslcal::units::lab_pkg::{LaserPkg, LensPkg};
 use serde_json::Value;
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};

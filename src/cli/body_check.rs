@@ -1,6 +1,6 @@
 //! The camera-body check every command that takes a calibration runs on its photos.
 
-use crate::photo_identity::{check_photos, ExpectedCamera};
+use crate::photo::identity::{check_photos, ExpectedCamera};
 use std::path::PathBuf;
 
 /// Whether photos from another camera body may be used.

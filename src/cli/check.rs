@@ -1,10 +1,10 @@
 //! `fslcal check`: has the laser moved since it was calibrated?
 
 use super::body_check::BodyCheckArgs;
-use crate::photo_identity::ExpectedCamera;
+use crate::photo::identity::ExpectedCamera;
 use super::progress;
 use crate::calibration;
-use crate::drift_check::{check, DriftCheck, FLAG_SIGMAS};
+use crate::calibration::drift::{check, DriftCheck, FLAG_SIGMAS};
 use crate::report::{self, check::CheckReport};
 use anyhow::{bail, Context};
 use std::path::{Path, PathBuf};

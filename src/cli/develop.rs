@@ -2,8 +2,8 @@
 
 use super::progress;
 use crate::atomic_file::write_atomically;
-use crate::raw::develop::{developed_rgb8, for_each_row, write_row, GreyWorld, Order, ToneCurve};
-use crate::raw::RawFrame;
+use crate::photo::raw::develop::{developed_rgb8, for_each_row, write_row, GreyWorld, Order, ToneCurve};
+use crate::photo::raw::RawFrame;
 use anyhow::{bail, Context};
 use serde_json::json;
 use std::path::{Path, PathBuf};

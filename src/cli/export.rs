@@ -2,8 +2,8 @@
 
 use super::inspect;
 use crate::atomic_file::write_atomically;
-use crate::fishsense_pkg::{LaserPkg, LensPkg};
-use crate::unit_files::{self, UnitFileError};
+use crate::units::lab_pkg::{LaserPkg, LensPkg};
+use crate::units::signed_file::{self, UnitFileError};
 use anyhow::Context;
 use serde_json::json;
 use std::path::PathBuf;
@@ -39,12 +39,12 @@ pub struct ExportArgs {
 
 pub fn run(args: ExportArgs) -> anyhow::Result<ExitCode> {
     let ExportFormat::FishsensePkg = args.format;
-    let bytes = unit_files::read_bytes(&args.file)?;
+    let bytes = signed_file::read_bytes(&args.file)?;
     let file = inspect::decode(&args.file, &bytes)?;
     file.check_signature().map_err(UnitFileError::at(&args.file))?;
     let c = &file.contents;
     // The unit names the output files: a crafted `../` must not write elsewhere.
-    let unit = unit_files::unit_id(c.unit)?;
+    let unit = signed_file::unit_id(c.unit)?;
     let cam = &c.camera;
     let lens = LensPkg {
         camera_matrix: [cam.fx_px, 0.0, cam.cx_px, 0.0, cam.fy_px, cam.cy_px, 0.0, 0.0, 1.0],

@@ -1,9 +1,9 @@
 //! `fslcal import`: a signed unit file from the FishSense lab's lens and laser `.pkg` files.
 
 use super::signing::SigningArgs;
-use crate::camera_file::{camera_from_opencv, OpencvCameraProblem};
-use crate::fishsense_pkg::{LaserPkg, LensPkg};
-use crate::unit_files;
+use crate::camera::opencv_yaml::{camera_from_opencv, OpencvCameraProblem};
+use crate::units::lab_pkg::{LaserPkg, LensPkg};
+use crate::units::signed_file;
 use crate::utc_time;
 use anyhow::Context;
 use fslcal_core::unit_file::{FitMethod, UnitFile};
@@ -99,7 +99,7 @@ pub fn run(args: ImportArgs) -> anyhow::Result<ExitCode> {
         method: FitMethod::Imported,
         target: None,
     };
-    let size = unit_files::sign_to_file(&contents, &key, &args.out)?;
+    let size = signed_file::sign_to_file(&contents, &key, &args.out)?;
     if args.json {
         println!("{}", json!({ "out": args.out.display().to_string(), "unit": unit, "size_bytes": size, "made_utc": utc_time::format_iso(made_utc_s) }));
     } else {

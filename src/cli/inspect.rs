@@ -1,8 +1,8 @@
 //! `fslcal inspect`: everything a unit file says, without needing to trust its signer.
 
 use crate::calibration::camera_json;
-use crate::keys::hex;
-use crate::unit_files::{self, UnitFileError};
+use crate::units::keys::hex;
+use crate::units::signed_file::{self, UnitFileError};
 use crate::utc_time;
 use fslcal_core::unit_file::SignedUnitFile;
 use serde_json::json;
@@ -136,7 +136,7 @@ fn summary(path: &Path, size: usize, f: &SignedUnitFile<'_>) -> String {
 }
 
 pub fn run(args: InspectArgs) -> anyhow::Result<ExitCode> {
-    let bytes = unit_files::read_bytes(&args.file)?;
+    let bytes = signed_file::read_bytes(&args.file)?;
     let file = decode(&args.file, &bytes)?;
     if args.json {
         println!("{}", serde_json::to_string_pretty(&unit_file_json(&args.file, bytes.len(), &file))?);

@@ -1,6 +1,6 @@
 //! `fslcal keygen`: the signing key a coordinator (or a dive lead) signs unit files with.
 
-use crate::keys;
+use crate::units::keys;
 use fslcal_core::unit_file::KeyId;
 use serde_json::json;
 use std::path::PathBuf;

@@ -176,7 +176,7 @@ fn mask_only(args: &MeasureArgs, mask: &Path) -> anyhow::Result<ExitCode> {
 /// target to narrow it down).
 #[cfg(feature = "vision")]
 fn search_dot(cal: &Calibration, photo: &Path) -> Result<Vec2, Withheld> {
-    use crate::dot_on_line::{find_dot_on_laser_line, LineSearch};
+    use crate::dot::on_line::{find_dot_on_laser_line, LineSearch};
     let no_dot = |why: String| Withheld::NoDot { why };
     let decoded = crate::vision::EncodedPhoto::read(photo).and_then(|p| p.decode_full()).map_err(|e| no_dot(e.to_string()))?;
     find_dot_on_laser_line(&decoded.colour(), &cal.camera, &cal.laser, &LineSearch::default())

@@ -1,7 +1,7 @@
 //! The options every command that signs a unit file shares (`laser`, `import`).
 
-use crate::photo_identity::ExpectedCamera;
-use crate::unit_files::{self, UnitFileError};
+use crate::photo::identity::ExpectedCamera;
+use crate::units::signed_file::{self, UnitFileError};
 use fslcal_core::unit_file::{self, CameraIdentity, UnitFile};
 use fslcal_core::CameraModel;
 use std::path::PathBuf;
@@ -44,7 +44,7 @@ impl SigningArgs {
         let (Some(unit), Some(key)) = (&self.unit, &self.key) else {
             anyhow::bail!("{}: a signed unit file needs --unit FSL-NN and --key KEY (make one with `fslcal keygen`)", out.display());
         };
-        Ok((unit_files::unit_id(unit).map_err(|e: UnitFileError| anyhow::anyhow!(e))?, key.clone()))
+        Ok((signed_file::unit_id(unit).map_err(|e: UnitFileError| anyhow::anyhow!(e))?, key.clone()))
     }
 }
 
@@ -61,9 +61,9 @@ pub struct PriorUnit {
 /// (told apart by its magic), which must be intact and, when --unit is given, that unit's.
 /// Also returns the body (and zoom) the photos must come from, where the file records them.
 pub fn read_camera(path: &std::path::Path, signing: &SigningArgs) -> anyhow::Result<(CameraModel, Option<PriorUnit>, ExpectedCamera)> {
-    let bytes = unit_files::read_bytes(path)?;
+    let bytes = signed_file::read_bytes(path)?;
     if !bytes.starts_with(&unit_file::MAGIC) {
-        let (camera, extras) = crate::camera_file::read(path)?;
+        let (camera, extras) = crate::camera::opencv_yaml::read(path)?;
         let expected = ExpectedCamera { serial: extras.camera_serial, focal_length_mm: extras.focal_length_mm };
         return Ok((camera, None, expected));
     }
@@ -71,9 +71,9 @@ pub fn read_camera(path: &std::path::Path, signing: &SigningArgs) -> anyhow::Res
     let file = unit_file::SignedUnitFile::decode(&bytes).map_err(&err)?;
     file.check_signature().map_err(err)?;
     let c = &file.contents;
-    let theirs = unit_files::unit_id(c.unit)?;
+    let theirs = signed_file::unit_id(c.unit)?;
     if let Some(ours) = &signing.unit {
-        let ours = unit_files::unit_id(ours)?;
+        let ours = signed_file::unit_id(ours)?;
         if ours != theirs {
             anyhow::bail!("{}: this is {theirs}'s calibration, not {ours}'s; give --camera the camera file or a unit file of {ours}", path.display());
         }
@@ -107,5 +107,5 @@ pub fn sign_unit_file(
     }
     let (unit, key) = signing.unit_and_key(out)?;
     let contents = UnitFile { unit: &unit, camera_identity: signing.identity(), water_depth_m: signing.water_depth_m, ..contents };
-    Ok(unit_files::sign_to_file(&contents, &key, out)?)
+    Ok(signed_file::sign_to_file(&contents, &key, out)?)
 }

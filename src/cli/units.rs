@@ -1,8 +1,8 @@
 //! `fslcal units`: the coordinator's registry of every unit's calibrations.
 
 use crate::calibration;
-use crate::calibration_change::{self, REFERENCE_FISH_M};
-use crate::unit_registry::{Filed, Registry};
+use crate::calibration::change::{self, REFERENCE_FISH_M};
+use crate::units::registry::{Filed, Registry};
 use crate::utc_time;
 use anyhow::Context;
 use serde_json::json;
@@ -167,7 +167,7 @@ fn list(registry: &Registry, trust: Option<&Path>, as_json: bool) -> anyhow::Res
 fn diff(old: &Path, new: &Path, as_json: bool) -> anyhow::Result<ExitCode> {
     let a = calibration::load(old)?;
     let b = calibration::load(new)?;
-    let change = calibration_change::compare(&a, &b);
+    let change = change::compare(&a, &b);
     let units = (a.unit.as_deref().unwrap_or("-"), b.unit.as_deref().unwrap_or("-"));
     if as_json {
         let mut v = serde_json::to_value(&change).context("cannot describe the change")?;

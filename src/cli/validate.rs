@@ -1,13 +1,13 @@
 //! `fslcal validate`: the slate-length check of a calibration.
 
 use super::body_check::BodyCheckArgs;
-use crate::photo_identity::ExpectedCamera;
+use crate::photo::identity::ExpectedCamera;
 use super::progress;
 use crate::calibration;
-use crate::dot::DotDetectorParams;
-use crate::laser_calibration::TargetArg;
+use crate::dot::candidates::DotDetectorParams;
+use crate::laser::pipeline::TargetArg;
 use crate::report::{self, validate::ValidationReport};
-use crate::validation::{validate, LengthRule, Validation, ValidationJob};
+use crate::calibration::validate::{validate, LengthRule, Validation, ValidationJob};
 use anyhow::{bail, Context};
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;

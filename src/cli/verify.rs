@@ -1,7 +1,7 @@
 //! `fslcal verify`: the gate before a unit file goes onto a camera or into the registry.
 
-use crate::keys::{self, TrustedKey};
-use crate::unit_files::{self, UnitFileError};
+use crate::units::keys::{self, TrustedKey};
+use crate::units::signed_file::{self, UnitFileError};
 use fslcal_core::unit_file::{self as format, SignedUnitFile};
 use serde_json::json;
 use std::path::{Path, PathBuf};
@@ -42,7 +42,7 @@ pub(super) fn verify_bytes<'a>(
 
 pub fn run(args: VerifyArgs) -> anyhow::Result<ExitCode> {
     let trusted = keys::read_trusted(&args.trust)?;
-    let bytes = unit_files::read_bytes(&args.file)?;
+    let bytes = signed_file::read_bytes(&args.file)?;
     match verify_bytes(&args.file, &bytes, &trusted) {
         Ok((file, by)) => {
             let line = format!(

@@ -1,8 +1,8 @@
 //! A fish's length from its end points, the laser dot and a calibration, with its 1-sigma,
 //! and the reasons to withhold a number rather than print a wrong one.
 
-use crate::exif::PhotoExif;
-use crate::photo_identity::{check_photo, ExpectedCamera};
+use crate::photo::exif::PhotoExif;
+use crate::photo::identity::{check_photo, ExpectedCamera};
 use crate::calibration::Calibration;
 use fslcal_core::{CameraModel, Vec2};
 use serde::Serialize;

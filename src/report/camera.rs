@@ -5,8 +5,8 @@
 use super::plot::{colour, Chart, Layer};
 use super::thumbnail::Overlay;
 use super::{add_plot, file_name, thumbnail_cells, Cell, Page, ReportError, ReportFiles, Verdict};
-use crate::camera_calibration::{CameraCalibration, CornerResiduals};
-use crate::camera_fit::FRAME_CORNER_SHARE;
+use crate::camera::calibrate::{CameraCalibration, CornerResiduals};
+use crate::camera::residuals::FRAME_CORNER_SHARE;
 use calib_targets::Checkerboard;
 use fslcal_core::Vec2;
 use std::path::{Path, PathBuf};

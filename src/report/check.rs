@@ -64,12 +64,12 @@ fn offset_chart(r: &CheckReport) -> Chart {
 #[cfg(feature = "vision")]
 impl CheckReport {
     /// The report of `fslcal check`'s result.
-    pub fn of(r: &crate::drift_check::DriftCheck, cal: &crate::calibration::Calibration) -> Self {
+    pub fn of(r: &crate::calibration::drift::DriftCheck, cal: &crate::calibration::Calibration) -> Self {
         CheckReport {
             calibration: cal.source.display().to_string(),
             camera: cal.camera,
             laser: cal.laser,
-            flag_sigmas: crate::drift_check::FLAG_SIGMAS,
+            flag_sigmas: crate::calibration::drift::FLAG_SIGMAS,
             photos: r
                 .photos
                 .iter()
@@ -77,7 +77,7 @@ impl CheckReport {
                     file: p.file.clone(),
                     dot_px: p.dot_px.map(|d| Vec2::new(d[0], d[1])),
                     offset_px: p.offset_px,
-                    threshold_px: p.explained_sigma_px.map(|s| s * crate::drift_check::FLAG_SIGMAS),
+                    threshold_px: p.explained_sigma_px.map(|s| s * crate::calibration::drift::FLAG_SIGMAS),
                     flag: p.flag,
                     reason: p.reason.clone(),
                 })

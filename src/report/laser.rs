@@ -8,8 +8,8 @@
 use super::plot::{colour, Chart, Layer, Marker};
 use super::thumbnail::{self, Overlay};
 use super::{add_plot, file_name, thumbnail_cells, Cell, Page, ReportError, ReportFiles, Verdict};
-use crate::laser_calibration::{LaserCalibration, LaserJob, PhotoReport};
-use crate::laser_fit::distance_sigma;
+use crate::laser::pipeline::{LaserCalibration, LaserJob, PhotoReport};
+use crate::laser::fit::distance_sigma;
 use fslcal_core::{CameraModel, LaserLine, Vec2, Vec3};
 use nalgebra::Matrix4;
 use std::path::{Path, PathBuf};

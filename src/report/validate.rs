@@ -48,7 +48,7 @@ pub struct ValidationReport {
 #[cfg(feature = "vision")]
 impl ValidationReport {
     /// The report of `fslcal validate`'s result.
-    pub fn of(v: &crate::validation::Validation, calibration: &Path, target: String) -> Self {
+    pub fn of(v: &crate::calibration::validate::Validation, calibration: &Path, target: String) -> Self {
         ValidationReport {
             calibration: calibration.display().to_string(),
             target: format!("{target}, length `{}` ({:.1} mm)", v.length_name, v.true_mm),

@@ -1,8 +1,8 @@
 //! The intrinsics solve: OpenCV's `calibrateCameraExtended` (Zhang's closed-form start, then
 //! Levenberg-Marquardt over the intrinsics and every view's pose), with the 5-coefficient
-//! distortion model. Outlier handling and the report live outside, in `camera_fit`.
+//! distortion model. Outlier handling and the report live outside, in `camera::residuals`.
 
-use crate::camera_fit::ViewPoints;
+use crate::camera::residuals::ViewPoints;
 use fslcal_core::{CameraModel, Distortion, Vec3};
 use opencv::calib3d;
 use opencv::core::{Mat, Point2f, Point3f, Size, TermCriteria, TermCriteria_Type, Vector, CV_64F};
@@ -23,7 +23,7 @@ pub struct IntrinsicsSolve {
     pub poses: Vec<(Vec3, Vec3)>,
     /// OpenCV's `stdDeviationsIntrinsics` for fx, fy, cx, cy, k1, k2, p1, p2, k3, unscaled.
     /// OpenCV 4.6 estimates the noise variance as (sum of squared residual lengths) / (N - P)
-    /// with N the number of *points*; `camera_fit` rescales them to 1-sigma.
+    /// with N the number of *points*; `camera::residuals` rescales them to 1-sigma.
     pub opencv_std_dev: [f64; 9],
     /// Number of free parameters (intrinsics not fixed, plus 6 per view).
     pub free_parameters: usize,

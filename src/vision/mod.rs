@@ -11,10 +11,10 @@ pub use intrinsics::{calibrate_intrinsics, IntrinsicsSolve, SolveOptions};
 pub use pose::{solve_pose, TargetPose};
 pub use slate::{find_slate, Features, SlateDetection, SlateMiss, SlateModel, MIN_INLIERS};
 
-use crate::dot::{ChannelOrder, ColourView};
-use crate::exif::PhotoExif;
-use crate::raw::develop::{binned_grey, for_each_row, write_row, GreyWorld, Order, ToneCurve};
-use crate::raw::{is_orf, RawError, RawFrame};
+use crate::dot::candidates::{ChannelOrder, ColourView};
+use crate::photo::exif::PhotoExif;
+use crate::photo::raw::develop::{binned_grey, for_each_row, write_row, GreyWorld, Order, ToneCurve};
+use crate::photo::raw::{is_orf, RawError, RawFrame};
 use opencv::core::{Mat, Scalar, Vector, CV_8UC1, CV_8UC3};
 use opencv::prelude::*;
 use opencv::{imgcodecs, imgproc};

@@ -8,10 +8,10 @@ mod common;
 
 use calib_targets::scene::Water;
 use calib_targets::Checkerboard;
-use fslcal::camera_file;
-use fslcal::dot::DotDetectorParams;
-use fslcal::laser_calibration::{calibrate, examine_photo, HandDots, LaserJob};
-use fslcal::laser_fit::{Gates, Method};
+use fslcal::camera::opencv_yaml;
+use fslcal::dot::candidates::DotDetectorParams;
+use fslcal::laser::pipeline::{calibrate, examine_photo, HandDots, LaserJob};
+use fslcal::laser::fit::{Gates, Method};
 use std::time::{Duration, Instant};
 
 fn median(mut v: Vec<Duration>) -> Duration {
@@ -25,7 +25,7 @@ fn main() {
     eprintln!("rendering scenes (not timed)...");
     let set = common::laser_set("bench-laser", 16, 11, Water::Clear, 0);
     let no_board = common::render_set("bench-no-board", &[common::no_board_spec(7)]);
-    let (camera, _) = camera_file::read(&set.camera_file).expect("camera file");
+    let (camera, _) = opencv_yaml::read(&set.camera_file).expect("camera file");
     let job = LaserJob {
         camera,
         target: Checkerboard::fishsense().into(),

@@ -81,7 +81,7 @@ pub fn no_board_spec(seed: u64) -> SceneSpec {
 
 /// The figures a camera test prints for the closing note: photos, residuals, outliers,
 /// coverage.
-pub fn camera_figures(cal: &fslcal::camera_calibration::CameraCalibration) -> String {
+pub fn camera_figures(cal: &fslcal::camera::calibrate::CameraCalibration) -> String {
     format!(
         "{} of {} photos used, RMS {:.3} px per point, worst {:.3} px, outlier corners {} of {}, outlier photos {} of {}, coverage {:.0}% (uncovered frame corners {:?})",
         cal.used_photos(),

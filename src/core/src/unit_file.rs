@@ -154,7 +154,7 @@ pub struct UnitFile<'a> {
     pub camera: CameraModel,
     pub laser: LaserLine,
     /// Covariance of (origin x m, origin y m, direction x/z, direction y/z), as
-    /// `laser_fit::LaserFit::covariance`. Symmetric; the file stores the upper triangle.
+    /// `laser::fit::LaserFit::covariance`. Symmetric; the file stores the upper triangle.
     pub laser_covariance: [[f64; 4]; 4],
     /// When the calibration was made, seconds since 1970-01-01 UTC.
     pub made_utc_s: i64,

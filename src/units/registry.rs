@@ -12,8 +12,8 @@
 //! deleted, so the folder is the unit's history.
 
 use crate::atomic_file::write_atomically;
-use crate::keys::{self, KeyError, TrustedKey};
-use crate::unit_files::{self, unit_id, UnitFileError};
+use crate::units::keys::{self, KeyError, TrustedKey};
+use crate::units::signed_file::{self, unit_id, UnitFileError};
 use crate::utc_time;
 use fslcal_core::unit_file::{self, FormatError, KeyId, SignedUnitFile};
 use std::path::{Path, PathBuf};
@@ -89,7 +89,7 @@ impl Registry {
 
     /// Files a calibration that verifies against `trusted` under its unit.
     pub fn add_calibration(&self, file: &Path, trusted: &[TrustedKey]) -> Result<(Filed, String), RegistryError> {
-        let bytes = unit_files::read_bytes(file)?;
+        let bytes = signed_file::read_bytes(file)?;
         let keys: Vec<[u8; 32]> = trusted.iter().map(|t| t.key).collect();
         let f = unit_file::verify(&bytes, &keys).map_err(UnitFileError::at(file))?;
         let unit = unit_id(f.contents.unit)?;
@@ -163,7 +163,7 @@ impl Registry {
 }
 
 fn read_current(path: &Path, trusted: &[TrustedKey]) -> Option<CurrentCalibration> {
-    let bytes = unit_files::read_bytes(path).ok()?;
+    let bytes = signed_file::read_bytes(path).ok()?;
     let f = SignedUnitFile::decode(&bytes).ok()?;
     let keys: Vec<[u8; 32]> = trusted.iter().map(|t| t.key).collect();
     let status = match f.check_signature() {

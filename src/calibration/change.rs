@@ -2,7 +2,7 @@
 //! distances and fish lengths come out if the old calibration is still used after the move.
 
 use crate::calibration::Calibration;
-use crate::laser_fit::angle_deg;
+use crate::laser::fit::angle_deg;
 use fslcal_core::Vec3;
 use serde::Serialize;
 

@@ -12,8 +12,8 @@
 //! what `fslcal validate`'s trend test catches.
 
 use crate::calibration::Calibration;
-use crate::dot_on_line::{find_dot_on_laser_line, LineSearch};
-use crate::laser_calibration::detected_sigma_px;
+use crate::dot::on_line::{find_dot_on_laser_line, LineSearch};
+use crate::laser::pipeline::detected_sigma_px;
 use crate::vision::EncodedPhoto;
 use fslcal_core::{CameraModel, LaserLine, Vec2, Vec3};
 use nalgebra::{Matrix4, Vector4};

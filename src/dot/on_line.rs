@@ -4,10 +4,10 @@
 //! depths a dot can have, in a band wide enough to still find the dot of a laser that has
 //! moved a little (the drift check measures exactly that offset).
 //!
-//! The detector is [`crate::dot::find_dot_candidates`]; this module only decides where it
+//! The detector is [`crate::dot::candidates::find_dot_candidates`]; this module only decides where it
 //! looks and which candidate it believes.
 
-use crate::dot::{find_dot_candidates, ColourView, DotCandidate, DotDetectorParams, SearchRegion};
+use crate::dot::candidates::{find_dot_candidates, ColourView, DotCandidate, DotDetectorParams, SearchRegion};
 use fslcal_core::{CameraModel, LaserLine, Vec2};
 
 /// Depths searched when the caller has nothing better, metres: from the closest a fish is
@@ -136,13 +136,13 @@ pub fn find_dot_on_laser_line(
     // clipped (a near dot that large has a clipped core), and a dot off the line is a claim
     // of drift that needs a strong blob, not a speck of texture.
     found.retain(|c| c.saturated_core || c.radius_px <= MAX_UNCLIPPED_RADIUS_PX);
-    found.retain(|c| c.snr >= OFF_LINE_MIN_SNR || crate::dot::distance_to_polyline(&line, c.pixel) <= ON_LINE_PX);
+    found.retain(|c| c.snr >= OFF_LINE_MIN_SNR || crate::dot::candidates::distance_to_polyline(&line, c.pixel) <= ON_LINE_PX);
     let Some(best) = found.first().cloned() else {
         return Err(DotOnLineError::NoDot { half_width_px: hw });
     };
     let offset_px = laser
         .pixel_offset(camera, best.pixel, search.depths_m.0 * 0.5, search.depths_m.1 * 2.0)
-        .unwrap_or_else(|| crate::dot::distance_to_polyline(&line, best.pixel));
+        .unwrap_or_else(|| crate::dot::candidates::distance_to_polyline(&line, best.pixel));
     Ok(LineDot { pixel: best.pixel, snr: best.snr, offset_px, rivals: found.len() - 1, candidate: best })
 }
 
@@ -172,7 +172,7 @@ fn search_pieces(img: &ColourView, line: &[Vec2], pieces: &[Vec<Vec2>], hw: f64,
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::dot::ChannelOrder;
+    use crate::dot::candidates::ChannelOrder;
     use calib_targets::rig::{fsl_laser, tg6_camera};
     use calib_targets::scene::{laser_scene_set, render, Water};
 

@@ -1,10 +1,19 @@
-//! A unit's calibration as the commands that *use* one see it (`--cal CAL`): the camera, the
-//! laser line and the laser's covariance, whichever file they came from.
+//! Using a calibration: loading one (`--cal CAL`), what a change between two means,
+//! validating it against a known length, and checking it for drift.
+//!
+//! [`Calibration`] is a unit's calibration as the commands that *use* one see it: the
+//! camera, the laser line and the laser's covariance, whichever file they came from.
 //!
 //! Either the JSON `fslcal laser --out` writes or the signed `.fslcal` unit file (told apart
 //! by its magic), so `validate`, `check` and `measure` never care which they were given.
 
-use crate::laser_fit::distance_sigma;
+pub mod change;
+#[cfg(feature = "vision")]
+pub mod drift;
+#[cfg(feature = "vision")]
+pub mod validate;
+
+use crate::laser::fit::distance_sigma;
 use fslcal_core::unit_file::{self, FormatError};
 use fslcal_core::{CameraModel, Distortion, LaserLine};
 use nalgebra::Matrix4;
@@ -17,7 +26,7 @@ pub struct Calibration {
     pub camera: CameraModel,
     pub laser: LaserLine,
     /// Covariance of (origin x m, origin y m, direction x/z, direction y/z), as
-    /// `laser_fit::LaserFit::covariance`.
+    /// `laser::fit::LaserFit::covariance`.
     pub laser_covariance: [[f64; 4]; 4],
     /// Depths the calibration's dots covered, metres: distances outside are extrapolation.
     pub depth_range_m: Option<(f64, f64)>,

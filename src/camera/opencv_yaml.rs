@@ -171,7 +171,7 @@ pub fn to_yaml(camera: &CameraModel, extras: &CameraFileExtras) -> String {
 mod tests {
     use super::*;
 
-    const OPENCV_SAMPLE: &str = include_str!("../tests/data/opencv-samples/left_intrinsics.yml");
+    const OPENCV_SAMPLE: &str = include_str!("../../tests/data/opencv-samples/left_intrinsics.yml");
 
     #[test]
     fn reads_opencvs_published_sample() {

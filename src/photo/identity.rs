@@ -6,7 +6,7 @@
 //! zoom function") and gets a warning, since the intrinsics no longer hold.
 
 use crate::calibration::Calibration;
-use crate::exif::PhotoExif;
+use crate::photo::exif::PhotoExif;
 use std::path::Path;
 
 /// What the calibration says about its camera.

@@ -3,7 +3,7 @@
 //! `fslcal_core::unit_file`.
 
 use crate::atomic_file::write_atomically;
-use crate::keys::{self, KeyError};
+use crate::units::keys::{self, KeyError};
 use fslcal_core::unit_file::{FormatError, UnitFile, MAX_FILE_BYTES};
 use std::io::Read;
 use std::path::Path;

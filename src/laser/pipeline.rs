@@ -7,8 +7,8 @@
 //! found nothing usable get a second, more sensitive look near where the first fit says the
 //! dot must be, and the fit is repeated.
 
-use crate::dot::{find_dot_candidates, ChannelOrder, ColourView, DotCandidate, DotDetectorParams, SearchRegion};
-use crate::laser_fit::{self, DotObservation, FitError, Gates, LaserFit, Method};
+use crate::dot::candidates::{find_dot_candidates, ChannelOrder, ColourView, DotCandidate, DotDetectorParams, SearchRegion};
+use crate::laser::fit::{self, DotObservation, FitError, Gates, LaserFit, Method};
 use crate::vision::{self, EncodedPhoto, Photo, SlateModel, TargetPose};
 use calib_targets::Checkerboard;
 use fslcal_core::{CameraModel, LaserLine, Plane, Vec2, Vec3};
@@ -501,7 +501,7 @@ pub fn calibrate(job: &LaserJob, photos: &[PathBuf], progress: &(dyn Fn() + Sync
     let observations = |results: &[PhotoResult]| -> Vec<Option<DotObservation>> {
         results.iter().map(|r| r.as_ref().ok().and_then(observation)).collect()
     };
-    let first = laser_fit::fit(&job.camera, &observations(&results), job.method, &job.gates);
+    let first = fit::fit(&job.camera, &observations(&results), job.method, &job.gates);
 
     // Second pass for the robust fit: photos with a board but no usable dot.
     let fit = match (first, job.method) {
@@ -534,7 +534,7 @@ pub fn calibrate(job: &LaserJob, photos: &[PathBuf], progress: &(dyn Fn() + Sync
                 }
             }
             if changed {
-                laser_fit::fit(&job.camera, &observations(&results), job.method, &job.gates)
+                fit::fit(&job.camera, &observations(&results), job.method, &job.gates)
             } else {
                 Ok(first)
             }

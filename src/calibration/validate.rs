@@ -8,9 +8,9 @@
 //! length error against distance is fitted and a significant trend fails the run.
 
 use crate::calibration::Calibration;
-use crate::dot::{DotDetectorParams, SearchRegion};
-use crate::dot_on_line::{laser_image_polyline, DEFAULT_BAND_HALF_WIDTH_PX, DEFAULT_SEARCH_DEPTHS_M};
-use crate::laser_calibration::{locate_target, LaserError, Target};
+use crate::dot::candidates::{DotDetectorParams, SearchRegion};
+use crate::dot::on_line::{laser_image_polyline, DEFAULT_BAND_HALF_WIDTH_PX, DEFAULT_SEARCH_DEPTHS_M};
+use crate::laser::pipeline::{locate_target, LaserError, Target};
 use fslcal_core::{Plane, Vec2, Vec3};
 use rayon::prelude::*;
 use serde::Serialize;
@@ -180,7 +180,7 @@ pub fn validate(job: &ValidationJob, photos: &[PathBuf], progress: &(dyn Fn() + 
                 .iter()
                 .filter_map(|c| {
                     let fix = laser.fix_from_pixel(camera, c.pixel)?;
-                    let on_plane = crate::laser_fit::dot_point(camera, &plane, c.pixel)?;
+                    let on_plane = crate::laser::fit::dot_point(camera, &plane, c.pixel)?;
                     Some((c, fix, (fix.depth_m / on_plane.z).ln().abs()))
                 })
                 .min_by(|a, b| a.2.total_cmp(&b.2));
@@ -192,7 +192,7 @@ pub fn validate(job: &ValidationJob, photos: &[PathBuf], progress: &(dyn Fn() + 
             // laser direction of 0.5 deg moves the distance by under 20% at 2 m); a
             // calibration that wrong everywhere leaves nothing measured, which fails too.
             if disagreement > MAX_DISTANCE_DISAGREEMENT.ln_1p() {
-                let on_plane = crate::laser_fit::dot_point(camera, &plane, dot.pixel).map_or(f64::NAN, |p| p.z);
+                let on_plane = crate::laser::fit::dot_point(camera, &plane, dot.pixel).map_or(f64::NAN, |p| p.z);
                 out.reason = Some(format!(
                     "the best dot-like blob gives {:.2} m by the laser but lies on the target at {on_plane:.2} m: not the dot, or a badly wrong calibration",
                     fix.depth_m

@@ -8,7 +8,7 @@
 
 pub mod develop;
 
-use crate::exif::strips_end;
+use crate::photo::exif::strips_end;
 use std::path::Path;
 use std::sync::Arc;
 

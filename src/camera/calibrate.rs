@@ -3,10 +3,10 @@
 //!
 //! Per photo (in parallel): find the board at reduced size and refine its corners at full
 //! resolution with windows sized from each corner's own square. Then solve
-//! (`vision::calibrate_intrinsics`), cull outlier corners and photos (`camera_fit::cull`),
+//! (`vision::calibrate_intrinsics`), cull outlier corners and photos (`camera::residuals::cull`),
 //! and solve again until nothing changes.
 
-use crate::camera_fit::{coverage, cull, one_sigma_from_opencv46, corner_limit_px, residuals_px, rms_px, Coverage, Inliers, OutlierRules, ViewPoints};
+use crate::camera::residuals::{coverage, cull, one_sigma_from_opencv46, corner_limit_px, residuals_px, rms_px, Coverage, Inliers, OutlierRules, ViewPoints};
 use crate::vision::{self, EncodedPhoto, SolveOptions, VisionError};
 use calib_targets::Checkerboard;
 use fslcal_core::{CameraModel, Vec2, Vec3};

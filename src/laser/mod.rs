@@ -1,0 +1,6 @@
+//! The laser chain: photos of a target with the dot on it, through the dots' 3D points, to
+//! a fitted laser line with its covariance and quality gates.
+
+pub mod fit;
+#[cfg(feature = "vision")]
+pub mod pipeline;
