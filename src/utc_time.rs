@@ -62,7 +62,8 @@ pub fn format_compact(t_s: i64) -> String {
 /// a zone `Z` or `±HH:MM` (none means UTC). Fractions of a second are dropped.
 pub fn parse_iso(text: &str) -> Option<i64> {
     let t = text.trim();
-    let num = |s: &str| -> Option<i64> { (!s.is_empty() && s.bytes().all(|b| b.is_ascii_digit())).then(|| s.parse().ok())? };
+    let num =
+        |s: &str| -> Option<i64> { (!s.is_empty() && s.bytes().all(|b| b.is_ascii_digit())).then(|| s.parse().ok())? };
     let date = t.get(..10)?;
     let (y, m, d) = (num(date.get(..4)?)?, num(date.get(5..7)?)?, num(date.get(8..10)?)?);
     if date.as_bytes()[4] != b'-' || date.as_bytes()[7] != b'-' || !(1..=12).contains(&m) || !(1..=31).contains(&d) {

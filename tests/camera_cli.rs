@@ -101,7 +101,15 @@ fn json_keys_and_a_camera_file_opencv_and_laser_read() {
     assert_eq!(c.distortion.to_opencv().as_slice(), dist.as_slice());
     // ... and `fslcal laser --camera` gets past the camera file to the photos (these have no
     // laser dot, so it stops there).
-    let l = fslcal(&["laser", "--camera", out.to_str().unwrap(), "--target", "checkerboard:9x6@25mm", &photos[0], &photos[1]]);
+    let l = fslcal(&[
+        "laser",
+        "--camera",
+        out.to_str().unwrap(),
+        "--target",
+        "checkerboard:9x6@25mm",
+        &photos[0],
+        &photos[1],
+    ]);
     let err = String::from_utf8_lossy(&l.stderr);
     assert!(!l.status.success());
     assert!(!err.contains("camera.yml") && !err.contains("panicked"), "{err}");
@@ -116,7 +124,17 @@ fn human_summary_says_rms_outliers_sigma_and_coverage() {
     assert!(o.status.success());
     let text = String::from_utf8_lossy(&o.stdout);
     eprintln!("{text}");
-    for needle in ["RMS", "px per point", "worst", "outlier corners", "of 702", "outlier photos 0 of 13", "1-sigma", "coverage:", "left02.jpg"] {
+    for needle in [
+        "RMS",
+        "px per point",
+        "worst",
+        "outlier corners",
+        "of 702",
+        "outlier photos 0 of 13",
+        "1-sigma",
+        "coverage:",
+        "left02.jpg",
+    ] {
         assert!(text.contains(needle), "summary lacks `{needle}`");
     }
     assert!(out.is_file());
@@ -156,7 +174,9 @@ fn bad_input_is_one_line_and_writes_nothing() {
     let blanks: Vec<String> = (0..4)
         .map(|i| {
             let p = dir.join(format!("blank{i}.png"));
-            image::GrayImage::from_fn(640, 480, |x, y| image::Luma([((x * 7 + y * 3 + i) % 200) as u8])).save(&p).unwrap();
+            image::GrayImage::from_fn(640, 480, |x, y| image::Luma([((x * 7 + y * 3 + i) % 200) as u8]))
+                .save(&p)
+                .unwrap();
             p.display().to_string()
         })
         .collect();

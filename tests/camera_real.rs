@@ -6,8 +6,8 @@ mod common;
 use calib_targets::Checkerboard;
 use common::camera_figures;
 use fslcal::camera::calibrate::{calibrate, solve_views, CameraCalibration, CameraJob};
-use fslcal::camera::residuals::{one_sigma_from_opencv46, residuals_px, rms_px, ViewPoints};
 use fslcal::camera::opencv_yaml;
+use fslcal::camera::residuals::{one_sigma_from_opencv46, residuals_px, rms_px, ViewPoints};
 use fslcal::vision::{calibrate_intrinsics, SolveOptions};
 use fslcal_core::{Vec2, Vec3};
 use std::path::{Path, PathBuf};
@@ -41,11 +41,17 @@ fn solver_reproduces_bouguets_answer_on_calib1() {
     let s = calibrate_intrinsics(&views, (640, 480), SolveOptions { fix_k3: true }).unwrap();
     let c = &s.camera;
     let d = c.distortion;
-    let (dfx, dfy, dcx, dcy) =
-        (c.fx_px - 809.94790, c.fy_px - 806.55964, c.cx_px - 361.99611, c.cy_px - 214.39514);
+    let (dfx, dfy, dcx, dcy) = (c.fx_px - 809.94790, c.fy_px - 806.55964, c.cx_px - 361.99611, c.cy_px - 214.39514);
     eprintln!(
         "calib1 vs Bouguet: fx {:.5} fy {:.5} cx {:.5} cy {:.5}; |dfx| {:.5} |dfy| {:.5} |dcx| {:.5} |dcy| {:.5} px",
-        c.fx_px, c.fy_px, c.cx_px, c.cy_px, dfx.abs(), dfy.abs(), dcx.abs(), dcy.abs()
+        c.fx_px,
+        c.fy_px,
+        c.cx_px,
+        c.cy_px,
+        dfx.abs(),
+        dfy.abs(),
+        dcx.abs(),
+        dcy.abs()
     );
     eprintln!(
         "calib1 distortion: k1 {:.5} k2 {:.5} p1 {:.5} p2 {:.5} k3 {} (Bouguet -0.12821 -0.39441 -0.00435 -0.00732)",
@@ -152,7 +158,9 @@ fn culling_removes_injected_bad_corners_and_a_misdetected_view() {
         clean[3].object_m.remove(k);
     }
     let reference = calibrate_intrinsics(&clean, (640, 480), SolveOptions { fix_k3: true }).unwrap().camera;
-    for (a, b) in [(c.fx_px, reference.fx_px), (c.fy_px, reference.fy_px), (c.cx_px, reference.cx_px), (c.cy_px, reference.cy_px)] {
+    for (a, b) in
+        [(c.fx_px, reference.fx_px), (c.fy_px, reference.fy_px), (c.cx_px, reference.cx_px), (c.cy_px, reference.cy_px)]
+    {
         assert!((a - b).abs() < 1e-3, "{a} vs {b}");
     }
 }
@@ -180,7 +188,15 @@ fn opencv_left_set_lands_on_the_small_window_answer() {
     eprintln!("left set: {}", camera_figures(cal));
     eprintln!(
         "left set: fx {:.2} fy {:.2} cx {:.2} cy {:.2} (1-sigma {:.2} {:.2} {:.2} {:.2}); dist {:?}",
-        c.fx_px, c.fy_px, c.cx_px, c.cy_px, cal.sigma[0], cal.sigma[1], cal.sigma[2], cal.sigma[3], c.distortion.to_opencv()
+        c.fx_px,
+        c.fy_px,
+        c.cx_px,
+        c.cy_px,
+        cal.sigma[0],
+        cal.sigma[1],
+        cal.sigma[2],
+        cal.sigma[3],
+        c.distortion.to_opencv()
     );
     eprintln!(
         "published left_intrinsics.yml: fx {:.2} fy {:.2} cx {:.2} cy {:.2} RMS 0.393; differences fx {:+.2} fy {:+.2} cx {:+.2} cy {:+.2}",
@@ -223,9 +239,13 @@ fn a_fixed_11x11_window_damages_the_far_board() {
         let found = find_checkerboard(&encoded, 9, 6).unwrap().unwrap();
         let grey = imgcodecs::imread(p.to_str().unwrap(), imgcodecs::IMREAD_GRAYSCALE).unwrap();
         let mut pts: Vector<Point2f> = found.corners_px.iter().map(|c| Point2f::new(c.x as f32, c.y as f32)).collect();
-        let criteria = TermCriteria::new((TermCriteria_Type::COUNT as i32) | (TermCriteria_Type::EPS as i32), 30, 0.1).unwrap();
+        let criteria =
+            TermCriteria::new((TermCriteria_Type::COUNT as i32) | (TermCriteria_Type::EPS as i32), 30, 0.1).unwrap();
         imgproc::corner_sub_pix(&grey, &mut pts, Size::new(11, 11), Size::new(-1, -1), criteria).unwrap();
-        views.push(ViewPoints { object_m: object.clone(), image_px: pts.iter().map(|q| Vec2::new(q.x as f64, q.y as f64)).collect() });
+        views.push(ViewPoints {
+            object_m: object.clone(),
+            image_px: pts.iter().map(|q| Vec2::new(q.x as f64, q.y as f64)).collect(),
+        });
         names.push(p.file_name().unwrap().to_string_lossy().into_owned());
     }
     // One solve, no culling: OpenCV's sample as published.

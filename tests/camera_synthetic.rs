@@ -14,7 +14,8 @@ use fslcal::camera::opencv_yaml;
 fn rendered_scenes_recover_the_true_intrinsics() {
     let set = render_set("camera-clear", &camera_scene_set(10, 5, Water::Clear));
     let (truth, _) = opencv_yaml::read(&set.camera_file).unwrap();
-    let cal = calibrate(&CameraJob::new(Checkerboard::fishsense()), &set.photos, &|| {}).unwrap_or_else(|e| panic!("{e}"));
+    let cal =
+        calibrate(&CameraJob::new(Checkerboard::fishsense()), &set.photos, &|| {}).unwrap_or_else(|e| panic!("{e}"));
     let c = &cal.camera;
     let fx_err = (c.fx_px / truth.fx_px - 1.0) * 100.0;
     let fy_err = (c.fy_px / truth.fy_px - 1.0) * 100.0;
@@ -29,7 +30,11 @@ fn rendered_scenes_recover_the_true_intrinsics() {
     assert!(pp_err < 3.0, "principal point {pp_err} px off");
     assert!(cal.used_photos() >= 9, "{} used", cal.used_photos());
     // Honest uncertainty: the truth within 4 sigma of the estimate.
-    for (k, (est, tru)) in [(c.fx_px, truth.fx_px), (c.fy_px, truth.fy_px), (c.cx_px, truth.cx_px), (c.cy_px, truth.cy_px)].iter().enumerate() {
+    for (k, (est, tru)) in
+        [(c.fx_px, truth.fx_px), (c.fy_px, truth.fy_px), (c.cx_px, truth.cx_px), (c.cy_px, truth.cy_px)]
+            .iter()
+            .enumerate()
+    {
         assert!((est - tru).abs() < 4.0 * cal.sigma[k] + 0.5, "parameter {k}: {est} vs {tru}, sigma {}", cal.sigma[k]);
     }
 }

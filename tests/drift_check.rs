@@ -7,9 +7,9 @@ mod common;
 use calib_targets::rig::fsl_laser;
 use calib_targets::scene::Water;
 use common::slate_set;
-use fslcal::calibration::Calibration;
-use fslcal::calibration::drift::check;
 use common::SceneSet;
+use fslcal::calibration::drift::check;
+use fslcal::calibration::Calibration;
 use fslcal_core::LaserLine;
 use std::process::Command;
 use std::sync::OnceLock;
@@ -40,13 +40,19 @@ fn a_laser_knocked_by_0_4_deg_is_flagged_from_three_photos() {
     let set = knocked_set();
     let r = check(&calibration(), &set.photos, &|| {}).expect("check");
     for p in &r.photos {
-        eprintln!("  knocked: {} offset {:?} px, sigma {:?}, flag {}, {:?}", p.file, p.offset_px, p.explained_sigma_px, p.flag, p.reason);
+        eprintln!(
+            "  knocked: {} offset {:?} px, sigma {:?}, flag {}, {:?}",
+            p.file, p.offset_px, p.explained_sigma_px, p.flag, p.reason
+        );
     }
     let implied = r.implied_direction_change_deg.expect("dots found");
     eprintln!("knocked by 0.4 deg: drifted {}, implied direction change {implied:.3} deg", r.drifted);
     assert!(r.drifted);
     assert!(r.photos.iter().all(|p| p.flag), "every photo of the knocked laser flagged");
-    assert!(r.photos.iter().filter(|p| p.offset_px.is_some_and(|o| (o - 20.5).abs() < 2.0)).count() >= 2, "the knocked dots are about f * 0.4 deg = 20.6 px off the line");
+    assert!(
+        r.photos.iter().filter(|p| p.offset_px.is_some_and(|o| (o - 20.5).abs() < 2.0)).count() >= 2,
+        "the knocked dots are about f * 0.4 deg = 20.6 px off the line"
+    );
     assert!((implied - 0.4).abs() < 0.1, "implied change {implied:.3} deg");
 }
 
@@ -90,7 +96,13 @@ fn the_check_command_reports_json_and_fails_in_one_line() {
     assert_eq!(v["drifted"], true);
     assert!(v["implied_direction_change_deg"].as_f64().unwrap() > 0.2);
     for p in v["photos"].as_array().unwrap() {
-        assert!(p["file"].is_string() && p["dot_px"].is_array() && p["offset_px"].as_f64().unwrap() > 5.0 && p["flag"] == true, "{p}");
+        assert!(
+            p["file"].is_string()
+                && p["dot_px"].is_array()
+                && p["offset_px"].as_f64().unwrap() > 5.0
+                && p["flag"] == true,
+            "{p}"
+        );
     }
     let err = String::from_utf8_lossy(&o.stderr);
     assert_eq!(err.trim().lines().count(), 1, "{err}");
@@ -99,12 +111,24 @@ fn the_check_command_reports_json_and_fails_in_one_line() {
     // A corrupt calibration: one line naming the file.
     let bad = set.dir.join("bad.json");
     std::fs::write(&bad, b"{\"photos\": [").unwrap();
-    let o = Command::new(env!("CARGO_BIN_EXE_fslcal")).args(["check", "--cal", bad.to_str().unwrap(), set.photos[0].to_str().unwrap()]).output().unwrap();
+    let o = Command::new(env!("CARGO_BIN_EXE_fslcal"))
+        .args(["check", "--cal", bad.to_str().unwrap(), set.photos[0].to_str().unwrap()])
+        .output()
+        .unwrap();
     let err = String::from_utf8_lossy(&o.stderr);
     assert!(!o.status.success() && err.trim().lines().count() == 1 && err.contains("bad.json"), "{err}");
     // validate with a slate that has no such length.
     let o = Command::new(env!("CARGO_BIN_EXE_fslcal"))
-        .args(["validate", "--cal", cal_path.to_str().unwrap(), "--target", &format!("slate:{}", common::example_slate_path().display()), "--length", "nope", set.photos[0].to_str().unwrap()])
+        .args([
+            "validate",
+            "--cal",
+            cal_path.to_str().unwrap(),
+            "--target",
+            &format!("slate:{}", common::example_slate_path().display()),
+            "--length",
+            "nope",
+            set.photos[0].to_str().unwrap(),
+        ])
         .output()
         .unwrap();
     let err = String::from_utf8_lossy(&o.stderr);

@@ -41,7 +41,16 @@ fn chord_m(t: &FishTruth) -> f64 {
 #[test]
 fn length_error_by_distance_from_masks() {
     let set = set();
-    let mut args = vec!["measure".into(), "--cal".into(), s(&set.cal), "--masks".into(), s(&set.dir.join("masks")), "--dots".into(), s(&set.dots), "--json".into()];
+    let mut args = vec![
+        "measure".into(),
+        "--cal".into(),
+        s(&set.cal),
+        "--masks".into(),
+        s(&set.dir.join("masks")),
+        "--dots".into(),
+        s(&set.dots),
+        "--json".into(),
+    ];
     args.extend(set.photos.iter().map(|p| s(p)));
     let v = run_json(&args);
     let fish = v["fish"].as_array().unwrap();
@@ -57,7 +66,11 @@ fn length_error_by_distance_from_masks() {
             t.fork_length_m * 1e3,
             got * 1e3,
             f["length_sigma_m"].as_f64().unwrap() * 1e3,
-            if t.spec.shape.bend_rad > 0.0 { format!("bent {:.0} deg", t.spec.shape.bend_rad.to_degrees()) } else { "straight".into() },
+            if t.spec.shape.bend_rad > 0.0 {
+                format!("bent {:.0} deg", t.spec.shape.bend_rad.to_degrees())
+            } else {
+                "straight".into()
+            },
             if t.spec.shape.fork_depth > 0.0 { ", forked" } else { ", square tail" },
         );
         assert!((f["distance_m"].as_f64().unwrap() - t.spec.pose.depth_m).abs() < 0.01 * t.spec.pose.depth_m, "{f}");
@@ -88,8 +101,18 @@ fn labels_at_the_true_ends_give_the_straight_length() {
     std::fs::write(&labels, csv).unwrap();
     let (out, summary) = (set.dir.join("lengths.csv"), set.dir.join("summary.csv"));
     let mut args = vec![
-        "measure".into(), "--cal".into(), s(&set.cal), "--labels".into(), s(&labels), "--dots".into(), s(&set.dots),
-        "--out".into(), s(&out), "--summary-out".into(), s(&summary), "--json".into(),
+        "measure".into(),
+        "--cal".into(),
+        s(&set.cal),
+        "--labels".into(),
+        s(&labels),
+        "--dots".into(),
+        s(&set.dots),
+        "--out".into(),
+        s(&out),
+        "--summary-out".into(),
+        s(&summary),
+        "--json".into(),
     ];
     args.extend(set.photos.iter().map(|p| s(p)));
     let v = run_json(&args);
@@ -140,8 +163,15 @@ fn label_studio_export_round_trip() {
     let export = set.dir.join("label-studio.json");
     std::fs::write(&export, serde_json::to_vec_pretty(&tasks).unwrap()).unwrap();
     let v = run_json(&[
-        "measure".into(), "--cal".into(), s(&set.cal), "--labels".into(), s(&export), "--json".into(),
-        s(&set.photos[0]), s(&set.photos[1]), s(&set.photos[2]),
+        "measure".into(),
+        "--cal".into(),
+        s(&set.cal),
+        "--labels".into(),
+        s(&export),
+        "--json".into(),
+        s(&set.photos[0]),
+        s(&set.photos[1]),
+        s(&set.photos[2]),
     ]);
     let fish = v["fish"].as_array().unwrap();
     assert_eq!(fish.len(), 2, "{v}");
@@ -149,9 +179,19 @@ fn label_studio_export_round_trip() {
     for (f, i) in fish.iter().zip([0usize, 2]) {
         let t = &set.truths[i];
         let head = [f["head_px"][0].as_f64().unwrap(), f["head_px"][1].as_f64().unwrap()];
-        assert!((head[0] - t.snout_px[0]).abs() < 1e-6 && (head[1] - t.snout_px[1]).abs() < 1e-6, "percent to pixels: {head:?} vs {:?}", t.snout_px);
+        assert!(
+            (head[0] - t.snout_px[0]).abs() < 1e-6 && (head[1] - t.snout_px[1]).abs() < 1e-6,
+            "percent to pixels: {head:?} vs {:?}",
+            t.snout_px
+        );
         let err = 100.0 * (f["length_m"].as_f64().unwrap() / chord_m(t) - 1.0);
-        eprintln!("Label Studio round trip: {} measured {:.1} mm, truth {:.1} mm ({err:+.3}%), species {}", f["photo"], f["length_m"].as_f64().unwrap() * 1e3, chord_m(t) * 1e3, f["species"]);
+        eprintln!(
+            "Label Studio round trip: {} measured {:.1} mm, truth {:.1} mm ({err:+.3}%), species {}",
+            f["photo"],
+            f["length_m"].as_f64().unwrap() * 1e3,
+            chord_m(t) * 1e3,
+            f["species"]
+        );
         assert!(err.abs() < 0.5);
         assert_eq!(f["species"], "Lutjanus");
     }
@@ -178,8 +218,29 @@ fn flags_withhold_wrong_numbers() {
         ),
     )
     .unwrap();
-    let v = run_json(&["measure".into(), "--cal".into(), s(&set.cal), "--labels".into(), s(&labels), "--json".into(), s(photo)]);
-    let flags: Vec<String> = v["fish"].as_array().unwrap().iter().map(|f| f["flags"].as_array().unwrap().iter().map(|x| x["flag"].as_str().unwrap().to_string()).collect::<Vec<_>>().join("+")).collect();
+    let v = run_json(&[
+        "measure".into(),
+        "--cal".into(),
+        s(&set.cal),
+        "--labels".into(),
+        s(&labels),
+        "--json".into(),
+        s(photo),
+    ]);
+    let flags: Vec<String> = v["fish"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|f| {
+            f["flags"]
+                .as_array()
+                .unwrap()
+                .iter()
+                .map(|x| x["flag"].as_str().unwrap().to_string())
+                .collect::<Vec<_>>()
+                .join("+")
+        })
+        .collect();
     assert_eq!(flags, ["", "dot_off_laser_line", "", "cut_by_edge"], "{v}");
     assert!(v["fish"][1]["length_m"].is_null());
     let (a, b) = (v["fish"][0]["length_m"].as_f64().unwrap(), v["fish"][2]["length_m"].as_f64().unwrap());
@@ -197,7 +258,15 @@ fn flags_withhold_wrong_numbers() {
     let painted = set.dir.join("painted").join(&name);
     std::fs::create_dir_all(painted.parent().unwrap()).unwrap();
     img.save(&painted).unwrap();
-    let v = run_json(&["measure".into(), "--cal".into(), s(&set.cal), "--labels".into(), s(&labels), "--json".into(), s(&painted)]);
+    let v = run_json(&[
+        "measure".into(),
+        "--cal".into(),
+        s(&set.cal),
+        "--labels".into(),
+        s(&labels),
+        "--json".into(),
+        s(&painted),
+    ]);
     // Either nothing dot-like is left, or what is found is off the laser's line: withheld.
     let flag = v["fish"][2]["flags"][0]["flag"].as_str().unwrap_or("").to_string();
     assert!(v["fish"][2]["length_m"].is_null() && (flag == "no_dot" || flag == "dot_off_laser_line"), "{v}");
@@ -207,14 +276,30 @@ fn flags_withhold_wrong_numbers() {
     cal["depth_range_m"] = json!([0.5, 0.8]);
     let narrow = set.dir.join("narrow-cal.json");
     std::fs::write(&narrow, serde_json::to_vec(&cal).unwrap()).unwrap();
-    let v = run_json(&["measure".into(), "--cal".into(), s(&narrow), "--labels".into(), s(&labels), "--json".into(), s(photo)]);
+    let v = run_json(&[
+        "measure".into(),
+        "--cal".into(),
+        s(&narrow),
+        "--labels".into(),
+        s(&labels),
+        "--json".into(),
+        s(photo),
+    ]);
     assert_eq!(v["fish"][0]["flags"][0]["flag"], "outside_calibrated_range", "{v}");
 
     // A photo of another size cannot come from the calibrated camera.
     let small = set.dir.join("small").join(&name);
     std::fs::create_dir_all(small.parent().unwrap()).unwrap();
     image::open(photo).unwrap().thumbnail(800, 600).save(&small).unwrap();
-    let v = run_json(&["measure".into(), "--cal".into(), s(&set.cal), "--labels".into(), s(&labels), "--json".into(), s(&small)]);
+    let v = run_json(&[
+        "measure".into(),
+        "--cal".into(),
+        s(&set.cal),
+        "--labels".into(),
+        s(&labels),
+        "--json".into(),
+        s(&small),
+    ]);
     assert_eq!(v["fish"][0]["flags"][0]["flag"], "other_camera_body", "{v}");
 }
 
@@ -225,8 +310,17 @@ fn one_fish_on_the_command_line_and_a_mask_alone() {
     let d = t.dot.as_ref().unwrap().pixel;
     let xy = |p: [f64; 2]| format!("{},{}", p[0], p[1]);
     let v = run_json(&[
-        "measure".into(), "--cal".into(), s(&set.cal), s(&set.photos[0]),
-        "--head".into(), xy(t.snout_px), "--tail".into(), xy(t.fork_px), "--dot".into(), xy(d), "--json".into(),
+        "measure".into(),
+        "--cal".into(),
+        s(&set.cal),
+        s(&set.photos[0]),
+        "--head".into(),
+        xy(t.snout_px),
+        "--tail".into(),
+        xy(t.fork_px),
+        "--dot".into(),
+        xy(d),
+        "--json".into(),
     ]);
     let err = v["length_m"].as_f64().unwrap() / chord_m(t) - 1.0;
     assert!(err.abs() < 0.005, "{v}");
@@ -242,15 +336,27 @@ fn one_fish_on_the_command_line_and_a_mask_alone() {
 
     // Without --dot the dot is searched for along the laser's image.
     let v = run_json(&[
-        "measure".into(), "--cal".into(), s(&set.cal), s(&set.photos[0]),
-        "--head".into(), xy(t.snout_px), "--tail".into(), xy(t.fork_px), "--json".into(),
+        "measure".into(),
+        "--cal".into(),
+        s(&set.cal),
+        s(&set.photos[0]),
+        "--head".into(),
+        xy(t.snout_px),
+        "--tail".into(),
+        xy(t.fork_px),
+        "--json".into(),
     ]);
     let found = [v["dot_px"][0].as_f64().unwrap(), v["dot_px"][1].as_f64().unwrap()];
-    eprintln!("dot searched: {:.2} px from the truth; length {:+.3}%", ((found[0] - d[0]).powi(2) + (found[1] - d[1]).powi(2)).sqrt(), 100.0 * (v["length_m"].as_f64().unwrap() / chord_m(t) - 1.0));
+    eprintln!(
+        "dot searched: {:.2} px from the truth; length {:+.3}%",
+        ((found[0] - d[0]).powi(2) + (found[1] - d[1]).powi(2)).sqrt(),
+        100.0 * (v["length_m"].as_f64().unwrap() / chord_m(t) - 1.0)
+    );
     assert!(((found[0] - d[0]).powi(2) + (found[1] - d[1]).powi(2)).sqrt() < 1.0, "{v}");
     assert!((v["length_m"].as_f64().unwrap() / chord_m(t) - 1.0).abs() < 0.005);
     // A file that is not a calibration.
-    let o = fslcal(&["measure".into(), "--cal".into(), s(&set.dots), "--labels".into(), s(&set.dots), s(&set.photos[0])]);
+    let o =
+        fslcal(&["measure".into(), "--cal".into(), s(&set.dots), "--labels".into(), s(&set.dots), s(&set.photos[0])]);
     let err = String::from_utf8_lossy(&o.stderr);
     assert!(!o.status.success() && err.lines().count() == 1 && err.contains("dots.csv"), "{err}");
 }

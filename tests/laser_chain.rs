@@ -8,8 +8,8 @@ use calib_targets::Checkerboard;
 use common::{laser_set, render_set, SceneSet};
 use fslcal::camera::opencv_yaml;
 use fslcal::dot::candidates::DotDetectorParams;
-use fslcal::laser::pipeline::{calibrate, HandDots, LaserCalibration, LaserError, LaserJob};
 use fslcal::laser::fit::{angle_deg, FitError, Gates, Method};
+use fslcal::laser::pipeline::{calibrate, HandDots, LaserCalibration, LaserError, LaserJob};
 use fslcal_core::{LaserLine, Vec2};
 use std::sync::OnceLock;
 
@@ -89,7 +89,10 @@ fn clean_water_meets_the_accuracy_targets() {
     // The reported uncertainty must be honest: the true error within 4 sigma of the origin.
     let c = cal.fit.covariance;
     let sigma_origin_mm = (c[0][0] + c[1][1]).sqrt() * 1e3;
-    assert!(origin_mm <= 4.0 * sigma_origin_mm.max(0.05), "origin error {origin_mm:.3} mm vs 1-sigma {sigma_origin_mm:.3} mm");
+    assert!(
+        origin_mm <= 4.0 * sigma_origin_mm.max(0.05),
+        "origin error {origin_mm:.3} mm vs 1-sigma {sigma_origin_mm:.3} mm"
+    );
     let s = &cal.fit.distance_sigma_m;
     assert!(s[0].1 < s[1].1 && s[1].1 < s[2].1, "distance sigma must grow with distance: {s:?}");
 }

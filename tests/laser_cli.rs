@@ -147,10 +147,17 @@ fn bad_inputs_give_one_line_errors() {
             "missing `image_height`",
         ),
         (
-            vec!["laser", "--camera", &set.camera_file.display().to_string(), "--target", "14x10@42.17mm", "/no/such.jpg"]
-                .into_iter()
-                .map(String::from)
-                .collect(),
+            vec![
+                "laser",
+                "--camera",
+                &set.camera_file.display().to_string(),
+                "--target",
+                "14x10@42.17mm",
+                "/no/such.jpg",
+            ]
+            .into_iter()
+            .map(String::from)
+            .collect(),
             "/no/such.jpg: no such photo",
         ),
         (

@@ -3,9 +3,11 @@
 
 mod common;
 
-use calib_targets::orf::{grbg_colour, raw_level, srgb_to_linear, tg6_orf, OrfMeta, TG6_BLACK, TG6_CROP_ORIGIN, TG6_WHITE};
-use calib_targets::scene::{laser_scene_set, render, Water};
 use calib_targets::camera_yaml;
+use calib_targets::orf::{
+    grbg_colour, raw_level, srgb_to_linear, tg6_orf, OrfMeta, TG6_BLACK, TG6_CROP_ORIGIN, TG6_WHITE,
+};
+use calib_targets::scene::{laser_scene_set, render, Water};
 use fslcal::photo::raw::develop::{developed_rgb16, GreyWorld};
 use fslcal::photo::raw::RawFrame;
 use rayon::prelude::*;
@@ -68,11 +70,15 @@ fn grey_world_output_has_the_scenes_expected_channel_means() {
     }
     let expected: [f64; 3] = [0, 1, 2].map(|c| sums[c] / counts[c]);
     // ...which is the scene's own mean linear colour times the sensor's response.
-    let scene_mean: [f64; 3] =
-        [0, 1, 2].map(|c| img.pixels().map(|p| srgb_to_linear(p.0[c])).sum::<f64>() / (800.0 * 600.0) * meta.response[c]);
+    let scene_mean: [f64; 3] = [0, 1, 2]
+        .map(|c| img.pixels().map(|p| srgb_to_linear(p.0[c])).sum::<f64>() / (800.0 * 600.0) * meta.response[c]);
     let gw = GreyWorld::of(&frame);
     for c in 0..3 {
-        assert!((gw.channel_means[c] - expected[c]).abs() < 1e-4, "channel {c}: {:?} vs {expected:?}", gw.channel_means);
+        assert!(
+            (gw.channel_means[c] - expected[c]).abs() < 1e-4,
+            "channel {c}: {:?} vs {expected:?}",
+            gw.channel_means
+        );
         assert!((expected[c] / scene_mean[c] - 1.0).abs() < 0.01, "channel {c}: {expected:?} vs scene {scene_mean:?}");
     }
     // The water's blue-green cast and the sensor's weak red make the raw far from grey.
@@ -83,8 +89,12 @@ fn grey_world_output_has_the_scenes_expected_channel_means() {
     let target = expected.iter().sum::<f64>() / 3.0;
     let out = developed_rgb16(&frame, &gw, true);
     let n = (out.len() / 3) as f64;
-    let means: Vec<f64> = (0..3).map(|c| out.iter().skip(c).step_by(3).map(|&v| v as f64 / 65535.0).sum::<f64>() / n).collect();
-    println!("raw channel means {expected:?}, grey-world gains {:?}, developed means {means:?}, target {target:.5}", gw.gains);
+    let means: Vec<f64> =
+        (0..3).map(|c| out.iter().skip(c).step_by(3).map(|&v| v as f64 / 65535.0).sum::<f64>() / n).collect();
+    println!(
+        "raw channel means {expected:?}, grey-world gains {:?}, developed means {means:?}, target {target:.5}",
+        gw.gains
+    );
     for (c, m) in means.iter().enumerate() {
         assert!((m / target - 1.0).abs() < 0.01, "channel {c}: developed mean {m:.5}, expected {target:.5}");
     }
@@ -98,19 +108,27 @@ fn truncated_and_corrupt_raws_give_one_line_errors() {
     let cases: Vec<(&str, Vec<u8>, &str)> = vec![
         ("half.ORF", bytes[..bytes.len() / 2].to_vec(), "truncated raw file"),
         ("header-only.ORF", bytes[..8].to_vec(), "corrupt raw file"),
-        ("nikon.ORF", {
-            let mut b = bytes.clone();
-            let at = b.windows(19).position(|w| w == b"OLYMPUS CORPORATION").unwrap();
-            b[at..at + 19].copy_from_slice(b"OLYMPUS CORPORATIOX");
-            b
-        }, "not supported"),
-        ("noise.ORF", {
-            let mut b = bytes.clone();
-            for (i, v) in b.iter_mut().enumerate().skip(8).take(4000) {
-                *v = (i * 7919 % 251) as u8;
-            }
-            b
-        }, "raw file"),
+        (
+            "nikon.ORF",
+            {
+                let mut b = bytes.clone();
+                let at = b.windows(19).position(|w| w == b"OLYMPUS CORPORATION").unwrap();
+                b[at..at + 19].copy_from_slice(b"OLYMPUS CORPORATIOX");
+                b
+            },
+            "not supported",
+        ),
+        (
+            "noise.ORF",
+            {
+                let mut b = bytes.clone();
+                for (i, v) in b.iter_mut().enumerate().skip(8).take(4000) {
+                    *v = (i * 7919 % 251) as u8;
+                }
+                b
+            },
+            "raw file",
+        ),
         ("text.ORF", b"IIRO this is not a raw file at all".to_vec(), "raw file"),
     ];
     for (name, data, want) in &cases {
@@ -120,7 +138,10 @@ fn truncated_and_corrupt_raws_give_one_line_errors() {
             Ok(_) => panic!("{name} decoded"),
             Err(e) => e.to_string(),
         };
-        assert!(msg.starts_with(&p.display().to_string()) && msg.contains(want) && !msg.contains('\n'), "{name}: {msg}");
+        assert!(
+            msg.starts_with(&p.display().to_string()) && msg.contains(want) && !msg.contains('\n'),
+            "{name}: {msg}"
+        );
     }
 
     // `fslcal develop`: the good one is written, the broken ones are reported and skipped.
@@ -154,7 +175,8 @@ fn develop_16bit_matches_8bit() {
     }
     let p8 = image::open(a.join("P7140001.png")).unwrap().to_rgb8();
     let p16 = image::open(b.join("P7140001.png")).unwrap().to_rgb16();
-    let worst = p8.as_raw().iter().zip(p16.as_raw()).map(|(&x, &y)| (x as f64 - y as f64 / 257.0).abs()).fold(0.0, f64::max);
+    let worst =
+        p8.as_raw().iter().zip(p16.as_raw()).map(|(&x, &y)| (x as f64 - y as f64 / 257.0).abs()).fold(0.0, f64::max);
     assert!(worst <= 0.51, "8-bit and 16-bit disagree by {worst} levels");
 }
 
@@ -206,7 +228,11 @@ fn laser_fits_from_raws_and_carries_serial_and_depth() {
     assert!(used >= 5, "{}", v["photos"]);
     let origin = v["laser"]["origin_m"].as_array().unwrap();
     for k in 0..2 {
-        assert!((origin[k].as_f64().unwrap() - set.truth_origin_m[k]).abs() < 0.003, "{origin:?} vs {:?}", set.truth_origin_m);
+        assert!(
+            (origin[k].as_f64().unwrap() - set.truth_origin_m[k]).abs() < 0.003,
+            "{origin:?} vs {:?}",
+            set.truth_origin_m
+        );
     }
     assert_eq!(v["camera_serial"], "BHR201234");
     assert_eq!(v["focal_length_mm"], 4.5);
@@ -239,14 +265,23 @@ fn laser_refuses_another_body_unless_allowed() {
     let o = fslcal(&laser_args(camera, &photos, &["--json"]));
     assert!(!o.status.success());
     let line = last_stderr_line(&o);
-    assert!(line.contains("taken with camera body BHR999999") && line.contains("BHR201234") && line.contains("--allow-other-body"), "{line}");
+    assert!(
+        line.contains("taken with camera body BHR999999")
+            && line.contains("BHR201234")
+            && line.contains("--allow-other-body"),
+        "{line}"
+    );
     assert!(o.stdout.is_empty());
 
     // With the override the photos are accepted, each with a warning, and the fit is made.
     let o = fslcal(&laser_args(camera, &photos, &["--json", "--allow-other-body"]));
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     let stderr = String::from_utf8_lossy(&o.stderr);
-    assert_eq!(stderr.lines().filter(|l| l.contains("allowed by --allow-other-body")).count(), photos.len(), "{stderr}");
+    assert_eq!(
+        stderr.lines().filter(|l| l.contains("allowed by --allow-other-body")).count(),
+        photos.len(),
+        "{stderr}"
+    );
     let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
     assert_eq!(v["accepted"], true);
     assert_eq!(v["camera_serial"], "BHR999999");
@@ -324,7 +359,10 @@ fn every_command_that_takes_a_calibration_refuses_another_body() {
     let refused = |o: &std::process::Output, what: &str| {
         assert!(!o.status.success(), "{what} accepted another body's photos");
         let line = last_stderr_line(o);
-        assert!(line.contains("taken with camera body BHR999999") && line.contains("--allow-other-body"), "{what}: {line}");
+        assert!(
+            line.contains("taken with camera body BHR999999") && line.contains("--allow-other-body"),
+            "{what}: {line}"
+        );
     };
     let with = |cmd: Vec<&str>, allow: bool| {
         let mut a = cmd;
@@ -341,10 +379,26 @@ fn every_command_that_takes_a_calibration_refuses_another_body() {
     // Allowed, they run on (their own verdicts are not what is tested here).
     for (what, o) in [("validate", with(validate, true)), ("check", with(check, true))] {
         assert!(!last_stderr_line(&o).contains("taken with camera body"), "{what}");
-        assert!(serde_json::from_slice::<serde_json::Value>(&o.stdout).is_ok(), "{what}: {}", String::from_utf8_lossy(&o.stderr));
+        assert!(
+            serde_json::from_slice::<serde_json::Value>(&o.stdout).is_ok(),
+            "{what}: {}",
+            String::from_utf8_lossy(&o.stderr)
+        );
     }
     // measure withholds the fish's number (in a dive, the rest go on).
-    let one = ["measure", "--cal", cal, "--head", "1800,1400", "--tail", "2200,1450", "--dot", "2000,1500", "--json", others[0]];
+    let one = [
+        "measure",
+        "--cal",
+        cal,
+        "--head",
+        "1800,1400",
+        "--tail",
+        "2200,1450",
+        "--dot",
+        "2000,1500",
+        "--json",
+        others[0],
+    ];
     let o = fslcal(&one);
     assert!(!o.status.success());
     let line = last_stderr_line(&o);

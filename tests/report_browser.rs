@@ -108,7 +108,8 @@ fn check_page(dir: &Path, profile: &Path) -> PageCheck {
     let json = dom[start..end].replace("&quot;", "\"").replace("&lt;", "<").replace("&gt;", ">").replace("&amp;", "&");
     let v: serde_json::Value = serde_json::from_str(&json).expect("check result is JSON");
 
-    let mut problems: Vec<String> = v["errors"].as_array().unwrap().iter().map(|e| e.as_str().unwrap().to_string()).collect();
+    let mut problems: Vec<String> =
+        v["errors"].as_array().unwrap().iter().map(|e| e.as_str().unwrap().to_string()).collect();
     // Messages the browser itself logs to the console (CSP, parse and load errors) reach
     // stderr as CONSOLE lines; the report has no scripts, so any such line is a problem.
     problems.extend(stderr.lines().filter(|l| l.contains(":CONSOLE")).map(|l| format!("console: {l}")));
@@ -165,7 +166,12 @@ fn validate_and_check_reports_load_in_chromium() {
 
     let report = dir.path().join("validate-report");
     let mut args: Vec<String> = vec!["validate".into(), "--cal".into(), cal.display().to_string()];
-    args.extend(["--target".into(), "checkerboard:14x10@42.17mm".into(), "--report".into(), report.display().to_string()]);
+    args.extend([
+        "--target".into(),
+        "checkerboard:14x10@42.17mm".into(),
+        "--report".into(),
+        report.display().to_string(),
+    ]);
     args.extend(photo_args(set));
     let o = fslcal(&args);
     let html = std::fs::read_to_string(report.join("index.html")).expect("validate report");

@@ -7,11 +7,11 @@ mod common;
 use calib_targets::rig::{fsl_laser, tg6_camera};
 use calib_targets::scene::Water;
 use common::{example_slate, example_slate_path, slate_set, SceneSet};
+use fslcal::calibration::validate::{validate, LengthRule, ValidationJob};
 use fslcal::calibration::Calibration;
 use fslcal::dot::candidates::DotDetectorParams;
-use fslcal::laser::pipeline::{calibrate, HandDots, LaserJob, TargetArg};
 use fslcal::laser::fit::{angle_deg, Gates, Method};
-use fslcal::calibration::validate::{validate, LengthRule, ValidationJob};
+use fslcal::laser::pipeline::{calibrate, HandDots, LaserJob, TargetArg};
 use fslcal_core::{LaserLine, Vec3};
 use std::sync::OnceLock;
 
@@ -40,7 +40,11 @@ fn slate_poses_match_the_truth_with_inliers_reported() {
         let e = (located.pose.to_camera(&centre) - pose.apply(&centre)).norm() * 1e3;
         let n = located.pose.rotation.column(2).angle(&pose.normal()).to_degrees();
         let inliers = located.inliers.expect("a slate reports inliers");
-        eprintln!("{}: {:.2} m, {inliers} inliers, centre {e:.2} mm, normal {n:.3} deg", p.display(), pose.apply(&centre).z);
+        eprintln!(
+            "{}: {:.2} m, {inliers} inliers, centre {e:.2} mm, normal {n:.3} deg",
+            p.display(),
+            pose.apply(&centre).z
+        );
         worst_centre_mm = worst_centre_mm.max(e / pose.apply(&centre).z);
         worst_normal_deg = worst_normal_deg.max(n);
         least_inliers = least_inliers.min(inliers);
@@ -79,7 +83,11 @@ fn laser_fit_from_slate_photos_meets_the_accuracy_targets() {
     let truth = fsl_laser();
     let dir = angle_deg(&cal.fit.laser.direction, &truth.direction);
     let origin_mm = (cal.fit.laser.origin() - truth.origin()).norm() * 1e3;
-    eprintln!("slate laser fit: {} of {} used, direction error {dir:.4} deg, origin error {origin_mm:.3} mm", cal.fit.used, set.photos.len());
+    eprintln!(
+        "slate laser fit: {} of {} used, direction error {dir:.4} deg, origin error {origin_mm:.3} mm",
+        cal.fit.used,
+        set.photos.len()
+    );
     assert!(cal.accepted(), "gates: {:?}", cal.gates);
     assert!(dir <= 0.1, "direction error {dir:.4} deg");
     assert!(origin_mm <= 5.0, "origin error {origin_mm:.3} mm");
@@ -113,7 +121,10 @@ fn validation_passes_a_right_calibration_and_fails_a_laser_off_by_half_a_degree(
     let right = validate(&job(fsl_laser(), LengthRule::TiltedPlane), &set.photos, &|| {}).unwrap();
     let worst = right.photos.iter().filter_map(|p| p.error_pct).fold(0.0f64, |a, e| a.max(e.abs()));
     let measured = right.photos.iter().filter(|p| p.error_pct.is_some()).count();
-    eprintln!("validate, right calibration: {measured} photos measured, worst error {worst:.3}%, slope {:?} %/m, pass {}", right.slope_pct_per_m, right.pass);
+    eprintln!(
+        "validate, right calibration: {measured} photos measured, worst error {worst:.3}%, slope {:?} %/m, pass {}",
+        right.slope_pct_per_m, right.pass
+    );
     for p in &right.photos {
         eprintln!("  {} {:?} {:?} {:?}", p.file, p.distance_m, p.error_pct, p.reason);
     }
@@ -122,8 +133,12 @@ fn validation_passes_a_right_calibration_and_fails_a_laser_off_by_half_a_degree(
     assert!(right.pass);
     assert_eq!(slate.length(None).unwrap().name, "diagonal");
 
-    let wrong = validate(&job(turned_in_plane(&fsl_laser(), 0.5), LengthRule::TiltedPlane), &set.photos, &|| {}).unwrap();
+    let wrong =
+        validate(&job(turned_in_plane(&fsl_laser(), 0.5), LengthRule::TiltedPlane), &set.photos, &|| {}).unwrap();
     let failed = wrong.photos.iter().filter(|p| p.pass == Some(false)).count();
-    eprintln!("validate, laser off by 0.5 deg: {failed} photos fail, slope {:?} %/m, trend fail {}, pass {}", wrong.slope_pct_per_m, wrong.trend_fails, wrong.pass);
+    eprintln!(
+        "validate, laser off by 0.5 deg: {failed} photos fail, slope {:?} %/m, trend fail {}, pass {}",
+        wrong.slope_pct_per_m, wrong.trend_fails, wrong.pass
+    );
     assert!(!wrong.pass && wrong.trend_fails);
 }

@@ -63,7 +63,19 @@ fn keygen(dir: &Path, name: &str) -> PathBuf {
 fn import(dir: &Path, key: &Path, unit: &str, tag: &str, tilt_deg: f64, date_s: i64) -> PathBuf {
     let (lens, laser) = lab_pkgs(dir, tag, tilt_deg, date_s);
     let out = dir.join(format!("{tag}.fslcal"));
-    let o = fslcal(&["import", s(&lens), s(&laser), "--unit", unit, "--key", s(key), "--camera-serial", "BHV204411", "--out", s(&out)]);
+    let o = fslcal(&[
+        "import",
+        s(&lens),
+        s(&laser),
+        "--unit",
+        unit,
+        "--key",
+        s(key),
+        "--camera-serial",
+        "BHV204411",
+        "--out",
+        s(&out),
+    ]);
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     out
 }
@@ -76,7 +88,11 @@ fn keygen_writes_a_private_secret_and_refuses_to_overwrite() {
     let v = json(&fslcal(&["keygen", "--out", s(&key), "--json"]));
     assert_eq!(std::fs::metadata(&key).unwrap().permissions().mode() & 0o777, 0o600);
     let public = std::fs::read_to_string(dir.path().join("lead.pub")).unwrap();
-    assert!(public.starts_with(&format!("fslcal-ed25519 {} {}", v["public_key"].as_str().unwrap(), v["key_id"].as_str().unwrap())));
+    assert!(public.starts_with(&format!(
+        "fslcal-ed25519 {} {}",
+        v["public_key"].as_str().unwrap(),
+        v["key_id"].as_str().unwrap()
+    )));
     let err = one_line_error(&fslcal(&["keygen", "--out", s(&key)]), "lead");
     assert!(err.contains("already exists"), "{err}");
 }
@@ -154,9 +170,9 @@ fn json_failure(o: &Output) -> Value {
 
 /// A Python with NumPy: `python3` on the PATH, or Debian's (which `.ci/setup` installs it for).
 fn python_with_numpy() -> Option<&'static str> {
-    ["python3", "/usr/bin/python3"].into_iter().find(|py| {
-        Command::new(py).args(["-c", "import numpy"]).output().is_ok_and(|o| o.status.success())
-    })
+    ["python3", "/usr/bin/python3"]
+        .into_iter()
+        .find(|py| Command::new(py).args(["-c", "import numpy"]).output().is_ok_and(|o| o.status.success()))
 }
 
 #[test]
@@ -180,7 +196,9 @@ fn export_writes_pkgs_numpy_reads_with_the_same_numbers() {
 
     // NumPy, as the lab's tools read them (tarfile + np.load).
     let Some(py) = python_with_numpy() else {
-        eprintln!("no Python with NumPy here: checked with fslcal's own .npy reader only (its bytes are golden-tested)");
+        eprintln!(
+            "no Python with NumPy here: checked with fslcal's own .npy reader only (its bytes are golden-tested)"
+        );
         return;
     };
     let script = r#"
@@ -201,7 +219,9 @@ print(json.dumps(out))
     let o = Command::new(py).args(["-c", script, s(&lens_path), s(&laser_path)]).output().unwrap();
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     let v: Value = serde_json::from_slice(&o.stdout).unwrap();
-    let values = |name: &str| -> Vec<f64> { v[name]["values"].as_array().unwrap().iter().map(|x| x.as_f64().unwrap()).collect() };
+    let values = |name: &str| -> Vec<f64> {
+        v[name]["values"].as_array().unwrap().iter().map(|x| x.as_f64().unwrap()).collect()
+    };
     assert_eq!(v["_calibration_matrix.npy"]["shape"], serde_json::json!([3, 3]));
     assert_eq!(v["_calibration_matrix.npy"]["dtype"], "float64");
     assert_eq!(values("_calibration_matrix.npy"), LENS_K);
@@ -288,7 +308,21 @@ fn laser_signs_a_unit_file_and_takes_one_as_its_camera() {
     assert!(err.contains("--key"), "{err}");
     assert!(!first.exists());
 
-    let o = laser(&set.camera_file, &["--unit", "FSL-05", "--key", s(&key), "--camera-serial", "BHV11", "--water-depth-m", "3.5", "--out", s(&first)]);
+    let o = laser(
+        &set.camera_file,
+        &[
+            "--unit",
+            "FSL-05",
+            "--key",
+            s(&key),
+            "--camera-serial",
+            "BHV11",
+            "--water-depth-m",
+            "3.5",
+            "--out",
+            s(&first),
+        ],
+    );
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     let size = std::fs::metadata(&first).unwrap().len();
     eprintln!("a real unit file from `fslcal laser`: {size} bytes");
@@ -311,7 +345,10 @@ fn laser_signs_a_unit_file_and_takes_one_as_its_camera() {
     assert!(cal.distance_sigma_m(3.0).unwrap() > 0.0);
 
     // The unit file as the next calibration's camera: same unit only.
-    let err = one_line_error(&laser(&first, &["--unit", "FSL-06", "--key", s(&key), "--out", s(&d.join("x.fslcal"))]), "FSL-05.fslcal");
+    let err = one_line_error(
+        &laser(&first, &["--unit", "FSL-06", "--key", s(&key), "--out", s(&d.join("x.fslcal"))]),
+        "FSL-05.fslcal",
+    );
     assert!(err.contains("FSL-05's calibration, not FSL-06's"), "{err}");
     let second = d.join("FSL-05-b.fslcal");
     let o = laser(&first, &["--key", s(&key), "--out", s(&second)]);

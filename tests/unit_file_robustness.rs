@@ -66,7 +66,10 @@ fn every_single_byte_change_fails_verification() {
     // The header's fields are told apart from tampering where the bytes allow it.
     let mut newer = file.clone();
     newer[4] = 2;
-    assert_eq!(unit_file::verify(&newer, &trusted()).unwrap_err(), FormatError::NewerVersion { found: 2, supported: 1 });
+    assert_eq!(
+        unit_file::verify(&newer, &trusted()).unwrap_err(),
+        FormatError::NewerVersion { found: 2, supported: 1 }
+    );
     let mut magic = file.clone();
     magic[0] ^= 0x01;
     assert_eq!(unit_file::verify(&magic, &trusted()).unwrap_err(), FormatError::NotACalibrationFile);
@@ -150,6 +153,9 @@ fn random_and_mutated_inputs_never_panic_and_never_verify() {
         mutated += 1;
     }
     eprintln!("{random} random + {mutated} mutated inputs: no panic; {decoded} decoded, none verified except the original; {reasons:?}");
-    assert!(reasons.get("corrupt").copied().unwrap_or(0) > 1000, "the mutations reach the payload decoder: {reasons:?}");
+    assert!(
+        reasons.get("corrupt").copied().unwrap_or(0) > 1000,
+        "the mutations reach the payload decoder: {reasons:?}"
+    );
     assert!(reasons.get("tampered").copied().unwrap_or(0) > 100, "and the signature check: {reasons:?}");
 }

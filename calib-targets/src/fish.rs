@@ -203,13 +203,18 @@ pub fn render_fish(spec: &FishSpec) -> RenderedFish {
             (0..w).map(move |x| {
                 let n = grid.normalised(x as f64, y as f64);
                 let q = pose.to_target(&Vec3::new(n[0] * z, n[1] * z, z));
-                if shape.contains(Vec2::new(q.x, q.y)) { 255 } else { 0 }
+                if shape.contains(Vec2::new(q.x, q.y)) {
+                    255
+                } else {
+                    0
+                }
             })
         })
         .collect();
     let mask = GrayImage::from_raw(w as u32, h as u32, bits).expect("buffer matches the image size");
     let project = |s: f64| {
-        let p = cam.project(&spec.pose.to_camera(spec.shape.spine_point(s))).expect("the fish is in front of the camera");
+        let p =
+            cam.project(&spec.pose.to_camera(spec.shape.spine_point(s))).expect("the fish is in front of the camera");
         [p.x, p.y]
     };
     RenderedFish {
@@ -229,17 +234,29 @@ pub fn render_fish(spec: &FishSpec) -> RenderedFish {
 fn fish_in_frame(camera: &CameraModel, shape: &FishShape, pose: &FishPose, margin_px: f64) -> bool {
     shape.outline_samples().iter().all(|q| {
         camera.project(&pose.to_camera(*q)).is_some_and(|p| {
-            p.x >= margin_px && p.y >= margin_px && p.x <= camera.width_px as f64 - 1.0 - margin_px && p.y <= camera.height_px as f64 - 1.0 - margin_px
+            p.x >= margin_px
+                && p.y >= margin_px
+                && p.x <= camera.width_px as f64 - 1.0 - margin_px
+                && p.y <= camera.height_px as f64 - 1.0 - margin_px
         })
     })
 }
 
 /// The pose that puts the laser dot on the fish's flank at `dot_at` of its length (a little
 /// off the spine), heading `heading_rad`: the diver aims the laser at the fish.
-pub fn pose_with_dot(shape: &FishShape, laser: &LaserLine, depth_m: f64, heading_rad: f64, dot_at: f64, mirrored: bool) -> FishPose {
+pub fn pose_with_dot(
+    shape: &FishShape,
+    laser: &LaserLine,
+    depth_m: f64,
+    heading_rad: f64,
+    dot_at: f64,
+    mirrored: bool,
+) -> FishPose {
     let hit = laser.point_at_depth(depth_m);
     let probe = FishPose { depth_m, snout_xy_m: [0.0, 0.0], heading_rad, mirrored };
-    let on_fish = probe.to_camera(shape.spine_point(dot_at * shape.fork_length_m) + Vec2::new(0.0, 0.1 * shape.depth * shape.fork_length_m));
+    let on_fish = probe.to_camera(
+        shape.spine_point(dot_at * shape.fork_length_m) + Vec2::new(0.0, 0.1 * shape.depth * shape.fork_length_m),
+    );
     FishPose { depth_m, snout_xy_m: [hit.x - on_fish.x, hit.y - on_fish.y], heading_rad, mirrored }
 }
 
@@ -272,7 +289,14 @@ pub fn fish_scene_set(count: usize, seed: u64, water: Water, near_m: f64, far_m:
                 pose = pose_with_dot(&shape, &laser, depth_m, heading, rng.range(0.3, 0.6), mirrored);
                 shape.fork_length_m *= 0.99;
             }
-            FishSpec { camera, laser: Some(laser), shape, pose, water, seed: seed.wrapping_mul(1000).wrapping_add(700 + i as u64) }
+            FishSpec {
+                camera,
+                laser: Some(laser),
+                shape,
+                pose,
+                water,
+                seed: seed.wrapping_mul(1000).wrapping_add(700 + i as u64),
+            }
         })
         .collect()
 }

@@ -12,8 +12,8 @@
 //! forward; `T_cam_target` maps target points into the camera frame; metres, pixels with the
 //! centre of the top-left pixel at (0, 0).
 
-pub mod orf;
 pub mod fish;
+pub mod orf;
 mod output;
 mod random;
 pub mod rig;

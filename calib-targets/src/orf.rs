@@ -168,10 +168,19 @@ fn ifd0_entries(meta: &OrfMeta, exif_at: Option<u32>) -> Vec<Entry> {
     e
 }
 
-fn raw_ifd_entries(meta: &OrfMeta, sw: u32, sh: u32, rows_per_strip: u32, strip_count: u32, exif_at: u32, strips_at: u32) -> Vec<Entry> {
+fn raw_ifd_entries(
+    meta: &OrfMeta,
+    sw: u32,
+    sh: u32,
+    rows_per_strip: u32,
+    strip_count: u32,
+    exif_at: u32,
+    strips_at: u32,
+) -> Vec<Entry> {
     let row_bytes = sw * 2;
     let offsets: Vec<u32> = (0..strip_count).map(|i| strips_at + i * rows_per_strip * row_bytes).collect();
-    let counts: Vec<u32> = (0..strip_count).map(|i| (sh - i * rows_per_strip).min(rows_per_strip) * row_bytes).collect();
+    let counts: Vec<u32> =
+        (0..strip_count).map(|i| (sh - i * rows_per_strip).min(rows_per_strip) * row_bytes).collect();
     let mut e = vec![
         Entry::long(0x00FE, &[0]),
         Entry::long(0x0100, &[sw]),
@@ -223,11 +232,7 @@ fn exif_entries_with_crop(meta: &OrfMeta, crop: (u32, u32)) -> Vec<Entry> {
 /// ImageProcessing IFDs, every offset relative to the note's first byte.
 fn maker_note(meta: &OrfMeta, crop: (u32, u32)) -> Vec<u8> {
     let mut note = Tiff::new_note();
-    let main_probe = vec![
-        Entry::undefined(0x0000, b"0100".to_vec()),
-        Entry::ifd(0x2010, 0),
-        Entry::ifd(0x2040, 0),
-    ];
+    let main_probe = vec![Entry::undefined(0x0000, b"0100".to_vec()), Entry::ifd(0x2010, 0), Entry::ifd(0x2040, 0)];
     let equipment_at = 12 + note.ifd_size(&main_probe);
     let equipment = vec![
         Entry::undefined(0x0000, b"0100".to_vec()),
@@ -320,7 +325,8 @@ impl Tiff {
     }
 
     fn ifd_size(&self, entries: &[Entry]) -> u32 {
-        let out_of_line: usize = entries.iter().filter(|e| e.data.len() > 4).map(|e| e.data.len().next_multiple_of(2)).sum();
+        let out_of_line: usize =
+            entries.iter().filter(|e| e.data.len() > 4).map(|e| e.data.len().next_multiple_of(2)).sum();
         (2 + 12 * entries.len() + 4 + out_of_line) as u32
     }
 

@@ -199,7 +199,8 @@ impl RayGrid {
     pub fn normalised(&self, u: f64, v: f64) -> [f64; 2] {
         let gx = ((u - self.origin_px) / self.step_px).clamp(0.0, (self.cols - 2) as f64);
         let gy = ((v - self.origin_px) / self.step_px).clamp(0.0, (self.rows - 2) as f64);
-        let (ix, iy) = (gx.floor().min((self.cols - 2) as f64) as usize, gy.floor().min((self.rows - 2) as f64) as usize);
+        let (ix, iy) =
+            (gx.floor().min((self.cols - 2) as f64) as usize, gy.floor().min((self.rows - 2) as f64) as usize);
         let (fx, fy) = (gx - ix as f64, gy - iy as f64);
         let i = iy * self.cols + ix;
         let (a, b, c, d) = (self.xy[i], self.xy[i + 1], self.xy[i + self.cols], self.xy[i + self.cols + 1]);
@@ -267,7 +268,8 @@ impl SlateTexture {
         let (ix, iy) = ((gx as usize).min(self.cols - 2), (gy as usize).min(self.rows - 2));
         let (fx, fy) = ((gx - ix as f64) as f32, (gy - iy as f64) as f32);
         let i = iy * self.cols + ix;
-        let (a, b, c, d) = (self.albedo[i], self.albedo[i + 1], self.albedo[i + self.cols], self.albedo[i + self.cols + 1]);
+        let (a, b, c, d) =
+            (self.albedo[i], self.albedo[i + 1], self.albedo[i + self.cols], self.albedo[i + self.cols + 1]);
         Some([0, 1, 2].map(|k| {
             let top = a[k] + (b[k] - a[k]) * fx;
             let bottom = c[k] + (d[k] - c[k]) * fx;
@@ -297,7 +299,8 @@ impl Surface<'_> {
                 let s = board.square_m;
                 let i = (q.x / s).floor() as i64 + 1;
                 let j = (q.y / s).floor() as i64 + 1;
-                let on_squares = (0..=board.inner_cols as i64).contains(&i) && (0..=board.inner_rows as i64).contains(&j);
+                let on_squares =
+                    (0..=board.inner_cols as i64).contains(&i) && (0..=board.inner_rows as i64).contains(&j);
                 Some([if on_squares && Checkerboard::square_colour_is_black(i, j) { BLACK } else { WHITE }; 3])
             }
             Surface::Slate(t) => t.albedo_at(q),
@@ -308,7 +311,13 @@ impl Surface<'_> {
     /// Share of the laser a white square would return that this albedo returns.
     fn laser_return(&self, albedo: [f64; 3]) -> f64 {
         match self {
-            Surface::Board(_) => if albedo[1] == BLACK { LASER_ON_BLACK } else { 1.0 },
+            Surface::Board(_) => {
+                if albedo[1] == BLACK {
+                    LASER_ON_BLACK
+                } else {
+                    1.0
+                }
+            }
             Surface::Slate(_) | Surface::Fish(_) => (albedo[1] / WHITE).clamp(LASER_ON_BLACK, 1.0),
         }
     }
@@ -375,7 +384,15 @@ fn through_water(optics: &WaterOptics, albedo: [f64; 3], range_m: f64) -> [f64; 
 
 /// A soft-edged disc plus a Gaussian halo, added to a float RGB image. The profile is
 /// radially symmetric about `centre`, so its intensity-weighted centre is `centre`.
-fn add_spot(img: &mut [[f32; 3]], width: usize, height: usize, centre: Vec2, radius_px: f64, radiance: [f64; 3], halo: (f64, f64)) {
+fn add_spot(
+    img: &mut [[f32; 3]],
+    width: usize,
+    height: usize,
+    centre: Vec2,
+    radius_px: f64,
+    radiance: [f64; 3],
+    halo: (f64, f64),
+) {
     let (halo_sigma, halo_strength) = halo;
     let edge = 0.45;
     let reach = (radius_px + 6.0 * edge).max(3.5 * halo_sigma).ceil() + 1.0;
@@ -565,10 +582,7 @@ pub(crate) fn render_setup(spec: &Setup) -> RenderedScene {
                     let on_black = laser_return < 0.5;
                     let spread = (BEAM_DIAMETER_M / diameter).powi(2);
                     let g = optics.attenuation_per_m[1];
-                    let radiance = LASER_RADIANCE
-                        * laser_return
-                        * spread
-                        * (-g * (range + back)).exp();
+                    let radiance = LASER_RADIANCE * laser_return * spread * (-g * (range + back)).exp();
                     let radius_px = 0.5 * diameter * cam.fx_px / hit.z;
                     let colour = LASER_COLOUR.map(|c| c * radiance);
                     let halo_sigma = optics.halo_width * (1.5 * radius_px + 2.0);
@@ -706,7 +720,10 @@ fn search_pose(
             return pose;
         }
     }
-    Pose { rotation: to_rows(&nalgebra::Matrix3::identity()), translation_m: [fallback_m.x, fallback_m.y, fallback_m.z] }
+    Pose {
+        rotation: to_rows(&nalgebra::Matrix3::identity()),
+        translation_m: [fallback_m.x, fallback_m.y, fallback_m.z],
+    }
 }
 
 /// A dive's laser calibration photos: the FishSense board from 0.6 to 4.5 m (evenly spread,
@@ -726,7 +743,8 @@ pub fn laser_scene_set(count: usize, seed: u64, water: Water, glints: u32) -> Ve
             let depth = (0.6 + 3.9 * t + rng.range(-0.05, 0.05)).clamp(0.6, 4.5);
             let hit = laser.point_at_depth(depth);
             let want_black = rng.unit() < 1.0 / 3.0;
-            let centre = Vec3::new(0.5 * (board.inner_cols - 1) as f64 * s, 0.5 * (board.inner_rows - 1) as f64 * s, 0.0);
+            let centre =
+                Vec3::new(0.5 * (board.inner_cols - 1) as f64 * s, 0.5 * (board.inner_rows - 1) as f64 * s, 0.0);
             let place = |rng: &mut SplitMix, _ease: f64, r: &nalgebra::Matrix3<f64>| {
                 let (i_sq, j_sq) = loop {
                     let i_sq = rng.below(board.inner_cols as u64 + 1) as i64;
@@ -735,7 +753,11 @@ pub fn laser_scene_set(count: usize, seed: u64, water: Water, glints: u32) -> Ve
                         break (i_sq, j_sq);
                     }
                 };
-                let on_board = Vec3::new((i_sq - 1) as f64 * s + rng.range(0.2, 0.8) * s, (j_sq - 1) as f64 * s + rng.range(0.2, 0.8) * s, 0.0);
+                let on_board = Vec3::new(
+                    (i_sq - 1) as f64 * s + rng.range(0.2, 0.8) * s,
+                    (j_sq - 1) as f64 * s + rng.range(0.2, 0.8) * s,
+                    0.0,
+                );
                 Some(hit - r * on_board)
             };
             // Last resort: face-on with the dot wherever the board's centre puts it.
@@ -758,7 +780,15 @@ pub fn laser_scene_set(count: usize, seed: u64, water: Water, glints: u32) -> Ve
 /// 35 degrees, turned up to 15 degrees in its plane, the dot at a random spot on the slate
 /// away from its edges, the whole slate in the frame. With glints, about one photo in four
 /// also has a green reflection of the laser elsewhere.
-pub fn slate_scene_set(slate: &SlateTexture, laser: LaserLine, depths_m: (f64, f64), count: usize, seed: u64, water: Water, glints: u32) -> Vec<SlateSpec> {
+pub fn slate_scene_set(
+    slate: &SlateTexture,
+    laser: LaserLine,
+    depths_m: (f64, f64),
+    count: usize,
+    seed: u64,
+    water: Water,
+    glints: u32,
+) -> Vec<SlateSpec> {
     let camera = crate::rig::tg6_camera();
     let outline = slate.outline_m();
     let centre = Vec3::new(0.5 * slate.width_m, 0.5 * slate.height_m, 0.0);
@@ -772,7 +802,8 @@ pub fn slate_scene_set(slate: &SlateTexture, laser: LaserLine, depths_m: (f64, f
             let place = |rng: &mut SplitMix, ease: f64, r: &nalgebra::Matrix3<f64>| {
                 // Up close the slate only just fits: aim the dot nearer its middle as tries fail.
                 let k = 0.15 + 0.35 * (1.0 - ease);
-                let on_slate = Vec3::new(rng.range(k, 1.0 - k) * slate.width_m, rng.range(k, 1.0 - k) * slate.height_m, 0.0);
+                let on_slate =
+                    Vec3::new(rng.range(k, 1.0 - k) * slate.width_m, rng.range(k, 1.0 - k) * slate.height_m, 0.0);
                 Some(hit - r * on_slate)
             };
             let pose = search_pose(&mut rng, &camera, &outline, 30.0, place, hit - centre);
@@ -806,13 +837,23 @@ pub fn camera_scene_set(count: usize, seed: u64, water: Water) -> Vec<SceneSpec>
             let place = |rng: &mut SplitMix, ease: f64, r: &nalgebra::Matrix3<f64>| {
                 // Aim the board's centre at its cell, drifting to the middle as attempts fail.
                 let u = camera.width_px as f64 * (0.5 + ease * ((cu + 0.5) / 3.0 - 0.5) * 1.3 + rng.range(-0.03, 0.03));
-                let v = camera.height_px as f64 * (0.5 + ease * ((cv + 0.5) / 3.0 - 0.5) * 1.3 + rng.range(-0.03, 0.03));
+                let v =
+                    camera.height_px as f64 * (0.5 + ease * ((cv + 0.5) / 3.0 - 0.5) * 1.3 + rng.range(-0.03, 0.03));
                 let n = camera.undistort(Vec2::new(u, v))?;
                 let depth = depth.max(0.5 + 0.6 * (1.0 - ease));
                 Some(Vec3::new(n.x, n.y, 1.0) * depth - r * centre)
             };
-            let pose = search_pose(&mut rng, &camera, &board.outline_m(), 10.0, place, Vec3::new(0.0, 0.0, 1.2) - centre);
-            SceneSpec { camera, laser: None, board: Some((board, pose)), water, glints: 0, impostor: false, seed: seed.wrapping_mul(1000).wrapping_add(500 + i as u64) }
+            let pose =
+                search_pose(&mut rng, &camera, &board.outline_m(), 10.0, place, Vec3::new(0.0, 0.0, 1.2) - centre);
+            SceneSpec {
+                camera,
+                laser: None,
+                board: Some((board, pose)),
+                water,
+                glints: 0,
+                impostor: false,
+                seed: seed.wrapping_mul(1000).wrapping_add(500 + i as u64),
+            }
         })
         .collect()
 }
@@ -845,8 +886,17 @@ mod tests {
         // Dot in the middle of the white square (2, 1).
         let on_board = Vec3::new(1.5 * s, 0.5 * s, 0.0);
         let t = laser.point_at_depth(depth) - on_board;
-        let pose = Pose { rotation: [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]], translation_m: [t.x, t.y, t.z] };
-        SceneSpec { camera: tg6_camera(), laser: Some(laser), board: Some((board, pose)), water, glints: 0, impostor: false, seed: 9 }
+        let pose =
+            Pose { rotation: [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]], translation_m: [t.x, t.y, t.z] };
+        SceneSpec {
+            camera: tg6_camera(),
+            laser: Some(laser),
+            board: Some((board, pose)),
+            water,
+            glints: 0,
+            impostor: false,
+            seed: 9,
+        }
     }
 
     /// Intensity-weighted centre of the green excess over its local median, around `at`.
@@ -856,7 +906,8 @@ mod tests {
             let p = img.get_pixel(x as u32, y as u32);
             p[1] as f64 - (p[0].max(p[2])) as f64
         };
-        let mut ring: Vec<f64> = (-half..=half).flat_map(|d| [excess(cx + d, cy - half), excess(cx + d, cy + half)]).collect();
+        let mut ring: Vec<f64> =
+            (-half..=half).flat_map(|d| [excess(cx + d, cy - half), excess(cx + d, cy + half)]).collect();
         ring.sort_by(f64::total_cmp);
         let bg = ring[ring.len() / 2];
         let (mut sx, mut sy, mut sw) = (0.0, 0.0, 0.0);

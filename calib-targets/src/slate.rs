@@ -95,9 +95,16 @@ impl Slate {
         let mut lengths = Vec::new();
         for l in &t.length {
             if !inside(l.from_mm) || !inside(l.to_mm) {
-                return Err(format(format!("length `{}` has a point outside the {}x{} mm scan", l.name, t.width_mm, t.height_mm)));
+                return Err(format(format!(
+                    "length `{}` has a point outside the {}x{} mm scan",
+                    l.name, t.width_mm, t.height_mm
+                )));
             }
-            let k = KnownLength { name: l.name.clone(), from_m: l.from_mm.map(|v| v * 1e-3), to_m: l.to_mm.map(|v| v * 1e-3) };
+            let k = KnownLength {
+                name: l.name.clone(),
+                from_m: l.from_mm.map(|v| v * 1e-3),
+                to_m: l.to_mm.map(|v| v * 1e-3),
+            };
             if k.length_m() < 0.01 {
                 return Err(format(format!("length `{}` is shorter than 10 mm", l.name)));
             }
@@ -107,8 +114,11 @@ impl Slate {
             lengths.push(k);
         }
         let scan = path.parent().unwrap_or(Path::new(".")).join(&t.scan);
-        let (w, h) = image::image_dimensions(&scan)
-            .map_err(|e| SlateError::Scan { path: name.clone(), scan: scan.display().to_string(), why: e.to_string() })?;
+        let (w, h) = image::image_dimensions(&scan).map_err(|e| SlateError::Scan {
+            path: name.clone(),
+            scan: scan.display().to_string(),
+            why: e.to_string(),
+        })?;
         let diff_pct = 100.0 * ((w as f64 / h as f64) / (t.width_mm / t.height_mm) - 1.0).abs();
         if diff_pct > 2.0 {
             return Err(SlateError::Aspect {
@@ -121,7 +131,13 @@ impl Slate {
                 diff_pct,
             });
         }
-        Ok(Slate { definition: path.to_path_buf(), scan, width_m: t.width_mm * 1e-3, height_m: t.height_mm * 1e-3, lengths })
+        Ok(Slate {
+            definition: path.to_path_buf(),
+            scan,
+            width_m: t.width_mm * 1e-3,
+            height_m: t.height_mm * 1e-3,
+            lengths,
+        })
     }
 
     /// The scan's pixels.
@@ -233,7 +249,10 @@ pub fn taped_slate_scan(seed: u64, width_mm: f64, height_mm: f64, px_per_mm: f64
 pub fn slate_toml(scan: &str, width_mm: f64, height_mm: f64, lengths: &[(&str, [f64; 2], [f64; 2])]) -> String {
     let mut s = format!("# A dive slate for fslcal (docs/slate.md).\nscan = \"{scan}\"\nwidth_mm = {width_mm:.1}\nheight_mm = {height_mm:.1}\n");
     for (name, a, b) in lengths {
-        s += &format!("\n[[length]]\nname = \"{name}\"\nfrom_mm = [{:.2}, {:.2}]\nto_mm = [{:.2}, {:.2}]\n", a[0], a[1], b[0], b[1]);
+        s += &format!(
+            "\n[[length]]\nname = \"{name}\"\nfrom_mm = [{:.2}, {:.2}]\nto_mm = [{:.2}, {:.2}]\n",
+            a[0], a[1], b[0], b[1]
+        );
     }
     s
 }

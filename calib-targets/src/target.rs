@@ -73,7 +73,11 @@ pub struct TargetParseError(String);
 
 impl fmt::Display for TargetParseError {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        write!(f, "{}; expected checkerboard:COLSxROWS@SQUAREmm with inner corners, e.g. checkerboard:14x10@42.17mm", self.0)
+        write!(
+            f,
+            "{}; expected checkerboard:COLSxROWS@SQUAREmm with inner corners, e.g. checkerboard:14x10@42.17mm",
+            self.0
+        )
     }
 }
 
@@ -94,7 +98,9 @@ impl FromStr for Checkerboard {
         let (cols, rows) = grid
             .split_once(['x', 'X'])
             .ok_or_else(|| err(format!("`{text}`: the corner count `{grid}` is not COLSxROWS")))?;
-        let count = |s: &str| s.trim().parse::<u32>().map_err(|_| err(format!("`{text}`: `{s}` is not a whole number of inner corners")));
+        let count = |s: &str| {
+            s.trim().parse::<u32>().map_err(|_| err(format!("`{text}`: `{s}` is not a whole number of inner corners")))
+        };
         let (inner_cols, inner_rows) = (count(cols)?, count(rows)?);
         if inner_cols < 2 || inner_rows < 2 {
             return Err(err(format!("`{text}`: a board needs at least 2x2 inner corners")));
@@ -107,7 +113,8 @@ impl FromStr for Checkerboard {
         } else {
             return Err(err(format!("`{text}`: the square size `{square}` needs a unit, mm or m")));
         };
-        let square_m = number.trim().parse::<f64>().map_err(|_| err(format!("`{text}`: `{number}` is not a number")))? * scale;
+        let square_m =
+            number.trim().parse::<f64>().map_err(|_| err(format!("`{text}`: `{number}` is not a number")))? * scale;
         if !(0.001..=0.5).contains(&square_m) {
             return Err(err(format!("`{text}`: a {:.1} mm square is not plausible (1-500 mm)", square_m * 1e3)));
         }

@@ -30,13 +30,21 @@ pub enum Event<'a> {
     /// A calibration file arrived (over USB or from the SD card): its bytes.
     LoadFile(&'a [u8]),
     /// The real-time clock was set, seconds since 1970-01-01 UTC.
-    SetClock { unix_s: i64 },
+    SetClock {
+        unix_s: i64,
+    },
     Press(Button),
     /// The camera found the laser dot at this pixel of a photo.
-    Dot { u_px: f64, v_px: f64 },
+    Dot {
+        u_px: f64,
+        v_px: f64,
+    },
     /// A slate-length validation result (from `fslcal validate` or the camera): the length
     /// measured through this calibration and the slate's true length.
-    Validation { measured_mm: f64, true_mm: f64 },
+    Validation {
+        measured_mm: f64,
+        true_mm: f64,
+    },
 }
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -155,10 +163,11 @@ impl Firmware {
 
     /// Verifies the stored file again and shows the result.
     fn self_check(&mut self) {
-        self.calibration = match unit_file::open(&self.file[..self.file_len], self.config.unit, self.config.trusted_keys) {
-            Ok(cal) => Calibration::Valid(cal),
-            Err(why) => Calibration::Invalid(why),
-        };
+        self.calibration =
+            match unit_file::open(&self.file[..self.file_len], self.config.unit, self.config.trusted_keys) {
+                Ok(cal) => Calibration::Valid(cal),
+                Err(why) => Calibration::Invalid(why),
+            };
         self.screen = match self.calibration {
             Calibration::Valid(_) => Screen::SelfCheck,
             _ => Screen::Invalid,
@@ -221,7 +230,11 @@ impl Firmware {
     }
 
     fn validate(&mut self, measured_mm: f64, true_mm: f64) {
-        if !matches!(self.calibration, Calibration::Valid(_)) || !true_mm.is_finite() || true_mm <= 0.0 || !measured_mm.is_finite() {
+        if !matches!(self.calibration, Calibration::Valid(_))
+            || !true_mm.is_finite()
+            || true_mm <= 0.0
+            || !measured_mm.is_finite()
+        {
             return;
         }
         let error_pct = 100.0 * (measured_mm - true_mm) / true_mm;

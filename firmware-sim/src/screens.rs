@@ -94,16 +94,12 @@ pub fn rejection_lines(own_unit: &str, why: &Rejection) -> [Line; 3] {
             [line("DAMAGED FILE"), a, b]
         }
         Rejection::UnknownSigner(id) => [line("UNKNOWN SIGNER"), text!(24, "key {id}"), line("is not trusted here")],
-        Rejection::OtherUnit { file_unit } => [
-            line("OTHER UNIT"),
-            text!(24, "file is for {}", file_unit.as_str()),
-            text!(24, "this unit is {own_unit}"),
-        ],
-        Rejection::NewerFormat { found, supported } => [
-            line("NEWER FORMAT"),
-            text!(24, "file v{found}, reads v{supported}"),
-            line("update the firmware"),
-        ],
+        Rejection::OtherUnit { file_unit } => {
+            [line("OTHER UNIT"), text!(24, "file is for {}", file_unit.as_str()), text!(24, "this unit is {own_unit}")]
+        }
+        Rejection::NewerFormat { found, supported } => {
+            [line("NEWER FORMAT"), text!(24, "file v{found}, reads v{supported}"), line("update the firmware")]
+        }
         Rejection::Truncated { found, expected } => {
             [line("TRUNCATED"), text!(24, "{found} of {expected} bytes"), line("copy the file again")]
         }
@@ -161,7 +157,11 @@ pub fn self_check_lines(fw: &Firmware, cal: &UnitCalibration) -> [Line; 5] {
     ]
 }
 
-fn self_check<D: DrawTarget<Color = BinaryColor>>(d: &mut D, fw: &Firmware, cal: &UnitCalibration) -> Result<(), D::Error> {
+fn self_check<D: DrawTarget<Color = BinaryColor>>(
+    d: &mut D,
+    fw: &Firmware,
+    cal: &UnitCalibration,
+) -> Result<(), D::Error> {
     title(d, "SELF-CHECK", "OK")?;
     body(d, &self_check_lines(fw, cal))
 }

@@ -96,7 +96,8 @@ pub fn parse_time(s: &str) -> Option<i64> {
         return Some(secs);
     }
     let b = s.as_bytes();
-    if b.len() != 20 || b[4] != b'-' || b[7] != b'-' || b[10] != b'T' || b[13] != b':' || b[16] != b':' || b[19] != b'Z' {
+    if b.len() != 20 || b[4] != b'-' || b[7] != b'-' || b[10] != b'T' || b[13] != b':' || b[16] != b':' || b[19] != b'Z'
+    {
         return None;
     }
     let num = |r: core::ops::Range<usize>| s.get(r)?.parse::<i64>().ok();
@@ -130,10 +131,7 @@ mod tests {
         assert_eq!(parse_line("dot 2004.5 1700.25 # near"), Ok(Some(Command::Dot { u_px: 2004.5, v_px: 1700.25 })));
         assert_eq!(parse_line("press ok"), Ok(Some(Command::Press(Button::Ok))));
         assert_eq!(parse_line("load a.fslcal"), Ok(Some(Command::Load { path: "a.fslcal" })));
-        assert_eq!(
-            parse_line("validate 405 400"),
-            Ok(Some(Command::Validate { measured_mm: 405.0, true_mm: 400.0 }))
-        );
+        assert_eq!(parse_line("validate 405 400"), Ok(Some(Command::Validate { measured_mm: 405.0, true_mm: 400.0 })));
         assert_eq!(parse_line("clock 2026-06-01T09:30:00Z"), Ok(Some(Command::Clock { unix_s: 1_780_306_200 })));
         assert_eq!(parse_line("dot 1 2 3"), Err(ScriptError::Usage("dot U_PX V_PX")));
         assert_eq!(parse_line("dot 1 nan"), Err(ScriptError::BadNumber));

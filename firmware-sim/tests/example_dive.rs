@@ -45,14 +45,36 @@ fn scripted_dive_reproduces_the_committed_screens() {
         .unwrap();
     assert!(run.status.success(), "{}", String::from_utf8_lossy(&run.stderr));
     let report: serde_json::Value = serde_json::from_slice(&run.stdout).unwrap();
-    let screens: Vec<&str> = report["steps"].as_array().unwrap().iter().map(|s| s["screen"].as_str().unwrap()).collect();
+    let screens: Vec<&str> =
+        report["steps"].as_array().unwrap().iter().map(|s| s["screen"].as_str().unwrap()).collect();
     // The story the script tells, screen by screen.
     assert_eq!(
         screens,
         [
-            "NoCalibration", "Invalid", "Invalid", "Invalid", "Invalid", "Invalid", "Invalid", "SelfCheck", "Live",
-            "Live", "Live", "Live", "Live", "Validation", "Validation", "Validation", "SelfCheck", "Live", "Live",
-            "Live", "Live", "DriftWarning", "Live", "Live",
+            "NoCalibration",
+            "Invalid",
+            "Invalid",
+            "Invalid",
+            "Invalid",
+            "Invalid",
+            "Invalid",
+            "SelfCheck",
+            "Live",
+            "Live",
+            "Live",
+            "Live",
+            "Live",
+            "Validation",
+            "Validation",
+            "Validation",
+            "SelfCheck",
+            "Live",
+            "Live",
+            "Live",
+            "Live",
+            "DriftWarning",
+            "Live",
+            "Live",
         ]
     );
     let summary = |i: usize| report["steps"][i]["summary"].as_str().unwrap().to_string();
@@ -98,7 +120,13 @@ fn a_bad_script_line_names_the_file_and_line_and_writes_nothing() {
     let script = dir.path().join("bad.txt");
     std::fs::write(&script, "clock 2026-11-25T07:30:00Z\npress next\ndot 12\n").unwrap();
     let out = dir.path().join("out");
-    let run = Command::new(env!("CARGO_BIN_EXE_firmware-sim")).arg("run").arg(&script).arg("--out").arg(&out).output().unwrap();
+    let run = Command::new(env!("CARGO_BIN_EXE_firmware-sim"))
+        .arg("run")
+        .arg(&script)
+        .arg("--out")
+        .arg(&out)
+        .output()
+        .unwrap();
     assert!(!run.status.success());
     let err = String::from_utf8_lossy(&run.stderr);
     assert_eq!(err.lines().count(), 1, "{err}");

@@ -105,9 +105,11 @@ fn the_stack_painting_measures_a_known_array() {
 #[test]
 fn firmware_state_and_stack_fit_a_cortex_m4() {
     let state = std::mem::size_of::<Firmware>();
-    println!("size_of::<Firmware>() = {state} bytes (the whole state: file buffer {} B, calibration {} B)",
+    println!(
+        "size_of::<Firmware>() = {state} bytes (the whole state: file buffer {} B, calibration {} B)",
         unit_file::MAX_FILE_BYTES,
-        std::mem::size_of::<firmware_sim::Calibration>());
+        std::mem::size_of::<firmware_sim::Calibration>()
+    );
     assert!(state < 16 * 1024, "{state}");
 
     let file = good_file();
@@ -170,8 +172,13 @@ fn firmware_state_and_stack_fit_a_cortex_m4() {
     println!("stack, Firmware::handle(Dot) without a fix (beam-image search): {no_fix_dot} bytes");
     println!("stack, screens::draw of the live screen into a 1 KiB framebuffer: {draw} bytes");
     let deepest = [decode, verify, open, load, dot, no_fix_dot, draw].into_iter().max().unwrap();
-    println!("RAM estimate: state {state} + framebuffer 1024 + deepest stack {deepest} = {} bytes", state + 1024 + deepest);
-    for (what, bytes) in [("verify", verify), ("open", open), ("load", load), ("dot", dot), ("no-fix dot", no_fix_dot), ("draw", draw)] {
+    println!(
+        "RAM estimate: state {state} + framebuffer 1024 + deepest stack {deepest} = {} bytes",
+        state + 1024 + deepest
+    );
+    for (what, bytes) in
+        [("verify", verify), ("open", open), ("load", load), ("dot", dot), ("no-fix dot", no_fix_dot), ("draw", draw)]
+    {
         assert!(bytes > 256, "{what}: {bytes} bytes is implausibly little: the probe is broken");
         assert!(bytes < 16 * 1024, "{what}: {bytes} bytes of stack");
     }

@@ -58,7 +58,12 @@ fn each_bad_file_reaches_its_own_reason() {
             Rejection::Truncated { found: 300, expected: good_file().len() },
             ["TRUNCATED", &format!("300 of {} bytes", good_file().len()), "copy the file again"],
         ),
-        ("not a calibration", b"Dive log, site B".to_vec(), Rejection::NotACalibration, ["NOT A CALIBRATION", "not an .fslcal file", ""]),
+        (
+            "not a calibration",
+            b"Dive log, site B".to_vec(),
+            Rejection::NotACalibration,
+            ["NOT A CALIBRATION", "not an .fslcal file", ""],
+        ),
     ];
     for (name, file, want, lines) in cases {
         let mut fw = loaded(&file);
@@ -203,7 +208,9 @@ fn every_screen_matches_its_golden_png_pixel_for_pixel() {
             got.save(&path).unwrap();
             continue;
         }
-        let want = image::open(&path).unwrap_or_else(|e| panic!("{}: {e} (FSLCAL_BLESS=1 writes it)", path.display())).to_rgb8();
+        let want = image::open(&path)
+            .unwrap_or_else(|e| panic!("{}: {e} (FSLCAL_BLESS=1 writes it)", path.display()))
+            .to_rgb8();
         assert_eq!(want.dimensions(), (128, 64), "{name}");
         let differing = got.pixels().zip(want.pixels()).filter(|(a, b)| a != b).count();
         let lit = got.pixels().filter(|p| p.0 != [0, 0, 0]).count();
@@ -229,7 +236,9 @@ fn invalid_screen_layout_matches_the_pattern() {
     d.set_allow_overdraw(true);
     screens::draw(&fw, &mut d).unwrap();
     let rows: Vec<String> = (0..33)
-        .map(|y| (0..64).map(|x| if d.get_pixel(Point::new(x, y)) == Some(BinaryColor::On) { '#' } else { '.' }).collect())
+        .map(|y| {
+            (0..64).map(|x| if d.get_pixel(Point::new(x, y)) == Some(BinaryColor::On) { '#' } else { '.' }).collect()
+        })
         .collect();
     let expected = PATTERN_TAMPERED_TOP_LEFT;
     if rows.join("\n") != expected.join("\n") {

@@ -35,7 +35,8 @@ pub fn compare(old: &Calibration, new: &Calibration) -> CalibrationChange {
         .iter()
         .map(|&z| {
             let dot = new.laser.point_at_depth(z);
-            let old_depth = new.camera.project(&dot).and_then(|px| old.laser.fix_from_pixel(&old.camera, px)).map(|f| f.depth_m);
+            let old_depth =
+                new.camera.project(&dot).and_then(|px| old.laser.fix_from_pixel(&old.camera, px)).map(|f| f.depth_m);
             let half = Vec3::new(REFERENCE_FISH_M / 2.0, 0.0, 0.0);
             let length = old_depth.and_then(|d| {
                 let head = new.camera.project(&(dot - half))?;

@@ -111,13 +111,23 @@ pub fn check(cal: &Calibration, photos: &[PathBuf], progress: &(dyn Fn() + Sync)
             let ((w, h), photo) = match photo {
                 Ok(p) => p,
                 Err(e) => {
-                    out.reason = Some(e.to_string().strip_prefix(&file).map_or(e.to_string(), |m| m.trim_start_matches(':').trim().to_string()));
+                    out.reason = Some(
+                        e.to_string()
+                            .strip_prefix(&file)
+                            .map_or(e.to_string(), |m| m.trim_start_matches(':').trim().to_string()),
+                    );
                     return Ok(out);
                 }
             };
             let cam = &cal.camera;
             if (w, h) != (cam.width_px, cam.height_px) {
-                return Err(CheckError::ImageSize { file, photo_w: w, photo_h: h, camera_w: cam.width_px, camera_h: cam.height_px });
+                return Err(CheckError::ImageSize {
+                    file,
+                    photo_w: w,
+                    photo_h: h,
+                    camera_w: cam.width_px,
+                    camera_h: cam.height_px,
+                });
             }
             let dot = match find_dot_on_laser_line(&photo.colour(), cam, &cal.laser, &search) {
                 Ok(d) => d,
@@ -149,5 +159,9 @@ pub fn check(cal: &Calibration, photos: &[PathBuf], progress: &(dyn Fn() + Sync)
     let mut changes: Vec<f64> = with_dot.iter().filter_map(|p| p.direction_change_deg).collect();
     changes.sort_by(f64::total_cmp);
     let implied = (!changes.is_empty()).then(|| changes[changes.len() / 2]);
-    Ok(DriftCheck { drifted: flagged > 0 && 2 * flagged >= with_dot.len(), photos: results, implied_direction_change_deg: implied })
+    Ok(DriftCheck {
+        drifted: flagged > 0 && 2 * flagged >= with_dot.len(),
+        photos: results,
+        implied_direction_change_deg: implied,
+    })
 }

@@ -51,7 +51,9 @@ impl Calibration {
 pub enum CalibrationError {
     #[error("{path}: cannot read the calibration: {source}")]
     Io { path: String, source: std::io::Error },
-    #[error("{path}: not a calibration file (expected the JSON `fslcal laser --out` writes, or a signed .fslcal); {why}")]
+    #[error(
+        "{path}: not a calibration file (expected the JSON `fslcal laser --out` writes, or a signed .fslcal); {why}"
+    )]
     NotACalibration { path: String, why: String },
     #[error("{path}: the calibration is implausible ({why}); re-run `fslcal laser`")]
     Implausible { path: String, why: String },

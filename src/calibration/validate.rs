@@ -135,7 +135,11 @@ fn slope(points: &[(f64, f64)]) -> Option<(f64, f64)> {
 }
 
 /// Measures the known length in every photo and judges the calibration.
-pub fn validate(job: &ValidationJob, photos: &[PathBuf], progress: &(dyn Fn() + Sync)) -> Result<Validation, ValidationError> {
+pub fn validate(
+    job: &ValidationJob,
+    photos: &[PathBuf],
+    progress: &(dyn Fn() + Sync),
+) -> Result<Validation, ValidationError> {
     crate::vision::use_single_threaded_opencv();
     let (name, from_t, to_t) = known_length(job)?;
     let true_m = (to_t - from_t).norm();
@@ -233,7 +237,8 @@ pub fn validate(job: &ValidationJob, photos: &[PathBuf], progress: &(dyn Fn() + 
     let slope = slope(&measured);
     // A trend fails when it is real (over 3 sigma) and large enough to matter: across the
     // photos' distances it moves the length by more than half the tolerance.
-    let span = measured.iter().map(|p| p.0).fold(f64::NEG_INFINITY, f64::max) - measured.iter().map(|p| p.0).fold(f64::INFINITY, f64::min);
+    let span = measured.iter().map(|p| p.0).fold(f64::NEG_INFINITY, f64::max)
+        - measured.iter().map(|p| p.0).fold(f64::INFINITY, f64::min);
     let trend_fails = slope.is_some_and(|(b, s)| b.abs() > 3.0 * s && b.abs() * span > 0.5 * job.tolerance_pct);
     let pass = !trend_fails && results.iter().all(|p| p.pass != Some(false));
     Ok(Validation {

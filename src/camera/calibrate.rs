@@ -6,7 +6,10 @@
 //! (`vision::calibrate_intrinsics`), cull outlier corners and photos (`camera::residuals::cull`),
 //! and solve again until nothing changes.
 
-use crate::camera::residuals::{coverage, cull, one_sigma_from_opencv46, corner_limit_px, residuals_px, rms_px, Coverage, Inliers, OutlierRules, ViewPoints};
+use crate::camera::residuals::{
+    corner_limit_px, coverage, cull, one_sigma_from_opencv46, residuals_px, rms_px, Coverage, Inliers, OutlierRules,
+    ViewPoints,
+};
 use crate::vision::{self, EncodedPhoto, SolveOptions, VisionError};
 use calib_targets::Checkerboard;
 use fslcal_core::{CameraModel, Vec2, Vec3};
@@ -26,7 +29,11 @@ pub struct CameraJob {
 
 impl CameraJob {
     pub fn new(board: Checkerboard) -> Self {
-        CameraJob { board, rules: OutlierRules { min_views: MIN_VIEWS, ..OutlierRules::default() }, solve: SolveOptions::default() }
+        CameraJob {
+            board,
+            rules: OutlierRules { min_views: MIN_VIEWS, ..OutlierRules::default() },
+            solve: SolveOptions::default(),
+        }
     }
 }
 
@@ -136,7 +143,11 @@ fn examine(board: &Checkerboard, path: &std::path::Path) -> Result<Detection, Vi
 }
 
 /// Runs the whole chain. `progress` is called once per photo examined.
-pub fn calibrate(job: &CameraJob, photos: &[PathBuf], progress: &(dyn Fn() + Sync)) -> Result<CameraCalibration, CameraError> {
+pub fn calibrate(
+    job: &CameraJob,
+    photos: &[PathBuf],
+    progress: &(dyn Fn() + Sync),
+) -> Result<CameraCalibration, CameraError> {
     vision::use_single_threaded_opencv();
     let (cols, rows) = (job.board.inner_cols, job.board.inner_rows);
     let detections: Vec<Detection> = photos
@@ -163,7 +174,8 @@ pub fn calibrate(job: &CameraJob, photos: &[PathBuf], progress: &(dyn Fn() + Syn
             });
         }
     }
-    let found: Vec<usize> = detections.iter().enumerate().filter(|(_, d)| d.corners.is_some()).map(|(i, _)| i).collect();
+    let found: Vec<usize> =
+        detections.iter().enumerate().filter(|(_, d)| d.corners.is_some()).map(|(i, _)| i).collect();
     if found.is_empty() {
         return Err(CameraError::NoBoard { cols, rows, count: photos.len() });
     }
@@ -193,7 +205,8 @@ pub fn solve_views(job: &CameraJob, views: &[ViewPoints], size: (u32, u32)) -> R
     let mut solves = 0;
     loop {
         let (selected, index) = inliers.select(views);
-        let solve = vision::calibrate_intrinsics(&selected, size, job.solve).map_err(|e| CameraError::Solve(e.message))?;
+        let solve =
+            vision::calibrate_intrinsics(&selected, size, job.solve).map_err(|e| CameraError::Solve(e.message))?;
         solves += 1;
         let c = &solve.camera;
         if !c.is_plausible() {
@@ -233,7 +246,8 @@ fn report(
             corners: None,
         })
         .collect();
-    let pose_index: std::collections::HashMap<usize, usize> = fit.inliers.used_views().enumerate().map(|(k, v)| (v, k)).collect();
+    let pose_index: std::collections::HashMap<usize, usize> =
+        fit.inliers.used_views().enumerate().map(|(k, v)| (v, k)).collect();
     let mut inlier_lengths = Vec::new();
     let (mut worst_px, mut worst_photo) = (0.0, 0);
     for (v, &photo) in found.iter().enumerate() {
@@ -241,7 +255,8 @@ fn report(
         r.corners_found = Some(views[v].image_px.len());
         match &fit.lengths[v] {
             Some(lengths) => {
-                let kept: Vec<f64> = lengths.iter().zip(&fit.inliers.corners[v]).filter(|(_, k)| **k).map(|(l, _)| *l).collect();
+                let kept: Vec<f64> =
+                    lengths.iter().zip(&fit.inliers.corners[v]).filter(|(_, k)| **k).map(|(l, _)| *l).collect();
                 let worst = kept.iter().copied().fold(0.0, f64::max);
                 if worst > worst_px {
                     (worst_px, worst_photo) = (worst, photo);
@@ -271,7 +286,11 @@ fn report(
                         .object_m
                         .iter()
                         .zip(&views[v].image_px)
-                        .map(|(o, i)| camera.project(&pose.to_camera(o)).map_or(Vec2::new(f64::INFINITY, f64::INFINITY), |q| i - q))
+                        .map(|(o, i)| {
+                            camera
+                                .project(&pose.to_camera(o))
+                                .map_or(Vec2::new(f64::INFINITY, f64::INFINITY), |q| i - q)
+                        })
                         .collect();
                     r.corners = Some(CornerResiduals {
                         corners_px: views[v].image_px.clone(),
@@ -283,7 +302,12 @@ fn report(
         }
     }
     let boards: Vec<&[Vec2]> = fit.inliers.used_views().map(|v| views[v].image_px.as_slice()).collect();
-    let cov = coverage(&boards, job.board.inner_cols as usize, job.board.inner_rows as usize, (camera.width_px, camera.height_px));
+    let cov = coverage(
+        &boards,
+        job.board.inner_cols as usize,
+        job.board.inner_rows as usize,
+        (camera.width_px, camera.height_px),
+    );
     let mut sigma = [0.0; 9];
     for (s, o) in sigma.iter_mut().zip(&fit.solve.opencv_std_dev) {
         *s = one_sigma_from_opencv46(*o, points, fit.solve.free_parameters);

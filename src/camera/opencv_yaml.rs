@@ -54,8 +54,13 @@ fn matrix(text: &str, key: &'static str, path: &str) -> Result<Vec<f64>, CameraF
         why: "no `data:` list".into(),
     })?;
     let after = &body[data_at + 5..];
-    let open = after.find('[').ok_or_else(|| CameraFileError::Malformed { path: path.into(), key, why: "no `[`".into() })?;
-    let close = after.find(']').ok_or_else(|| CameraFileError::Malformed { path: path.into(), key, why: "no closing `]`".into() })?;
+    let open =
+        after.find('[').ok_or_else(|| CameraFileError::Malformed { path: path.into(), key, why: "no `[`".into() })?;
+    let close = after.find(']').ok_or_else(|| CameraFileError::Malformed {
+        path: path.into(),
+        key,
+        why: "no closing `]`".into(),
+    })?;
     if close < open {
         return Err(CameraFileError::Malformed { path: path.into(), key, why: "`]` before `[`".into() });
     }
@@ -64,7 +69,11 @@ fn matrix(text: &str, key: &'static str, path: &str) -> Result<Vec<f64>, CameraF
         .map(|s| s.trim())
         .filter(|s| !s.is_empty())
         .map(|s| {
-            s.parse::<f64>().map_err(|_| CameraFileError::Malformed { path: path.into(), key, why: format!("`{s}` is not a number") })
+            s.parse::<f64>().map_err(|_| CameraFileError::Malformed {
+                path: path.into(),
+                key,
+                why: format!("`{s}` is not a number"),
+            })
         })
         .collect()
 }
@@ -109,7 +118,11 @@ pub fn parse(text: &str, path: &str) -> Result<(CameraModel, CameraFileExtras), 
     }
     let int = |key: &'static str| -> Result<u32, CameraFileError> {
         let v = scalar(text, key).ok_or_else(|| CameraFileError::Missing { path: path.into(), key })?;
-        v.parse::<u32>().map_err(|_| CameraFileError::Malformed { path: path.into(), key, why: format!("`{v}` is not a whole number") })
+        v.parse::<u32>().map_err(|_| CameraFileError::Malformed {
+            path: path.into(),
+            key,
+            why: format!("`{v}` is not a whole number"),
+        })
     };
     let (w, h) = (int("image_width")?, int("image_height")?);
     let k = matrix(text, "camera_matrix", path)?;

@@ -61,7 +61,14 @@ pub struct OutlierRules {
 
 impl Default for OutlierRules {
     fn default() -> Self {
-        OutlierRules { k_corner: 5.0, k_photo: 4.0, min_photo_ratio: 2.0, max_corner_loss: 0.25, min_views: 4, max_rounds: 8 }
+        OutlierRules {
+            k_corner: 5.0,
+            k_photo: 4.0,
+            min_photo_ratio: 2.0,
+            max_corner_loss: 0.25,
+            min_views: 4,
+            max_rounds: 8,
+        }
     }
 }
 
@@ -75,7 +82,10 @@ pub struct Inliers {
 
 impl Inliers {
     pub fn all(views: &[ViewPoints]) -> Self {
-        Inliers { corners: views.iter().map(|v| vec![true; v.image_px.len()]).collect(), views: vec![true; views.len()] }
+        Inliers {
+            corners: views.iter().map(|v| vec![true; v.image_px.len()]).collect(),
+            views: vec![true; views.len()],
+        }
     }
 
     /// The used views with only their inlier corners, and the index of each in `views`.
@@ -229,7 +239,8 @@ pub const FRAME_CORNER_SHARE: f64 = 0.15;
 /// sampled on a 1%-of-the-side grid.
 pub fn coverage(boards: &[&[Vec2]], cols: usize, rows: usize, size: (u32, u32)) -> Coverage {
     let (w, h) = (size.0 as f64, size.1 as f64);
-    let outlines: Vec<Vec<Vec2>> = boards.iter().filter(|b| b.len() == cols * rows).map(|b| outline(b, cols, rows)).collect();
+    let outlines: Vec<Vec<Vec2>> =
+        boards.iter().filter(|b| b.len() == cols * rows).map(|b| outline(b, cols, rows)).collect();
     let n = 100;
     let mut covered = 0;
     for j in 0..n {
@@ -247,11 +258,12 @@ pub fn coverage(boards: &[&[Vec2]], cols: usize, rows: usize, size: (u32, u32)) 
             dx <= FRAME_CORNER_SHARE * w && dy <= FRAME_CORNER_SHARE * h
         })
     };
-    let uncovered_frame_corners = [("top-left", 0.0, 0.0), ("top-right", 1.0, 0.0), ("bottom-left", 0.0, 1.0), ("bottom-right", 1.0, 1.0)]
-        .into_iter()
-        .filter(|(_, fx, fy)| !near(*fx, *fy))
-        .map(|(name, _, _)| name)
-        .collect();
+    let uncovered_frame_corners =
+        [("top-left", 0.0, 0.0), ("top-right", 1.0, 0.0), ("bottom-left", 0.0, 1.0), ("bottom-right", 1.0, 1.0)]
+            .into_iter()
+            .filter(|(_, fx, fy)| !near(*fx, *fy))
+            .map(|(name, _, _)| name)
+            .collect();
     Coverage { share: covered as f64 / (n * n) as f64, uncovered_frame_corners }
 }
 
@@ -274,15 +286,17 @@ mod tests {
     fn robust_sigma_of_rayleigh_lengths() {
         // Deterministic Rayleigh quantiles for sigma 0.3.
         let n = 2001;
-        let lengths: Vec<f64> =
-            (1..n).map(|i| 0.3 * (-2.0 * (1.0 - i as f64 / n as f64).ln()).sqrt()).collect();
+        let lengths: Vec<f64> = (1..n).map(|i| 0.3 * (-2.0 * (1.0 - i as f64 / n as f64).ln()).sqrt()).collect();
         let s = robust_sigma_px(&lengths);
         assert!((s - 0.3).abs() < 0.002, "{s}");
     }
 
     fn synthetic(lengths_per_view: &[Vec<f64>]) -> (Vec<Option<Vec<f64>>>, Inliers) {
         let l: Vec<Option<Vec<f64>>> = lengths_per_view.iter().cloned().map(Some).collect();
-        let inl = Inliers { corners: lengths_per_view.iter().map(|v| vec![true; v.len()]).collect(), views: vec![true; l.len()] };
+        let inl = Inliers {
+            corners: lengths_per_view.iter().map(|v| vec![true; v.len()]).collect(),
+            views: vec![true; l.len()],
+        };
         (l, inl)
     }
 
@@ -317,8 +331,9 @@ mod tests {
     #[test]
     fn coverage_of_one_centred_board() {
         // A 3x3 grid spanning the middle half of a 400x300 frame covers a quarter of it.
-        let corners: Vec<Vec2> =
-            (0..3).flat_map(|r| (0..3).map(move |c| Vec2::new(99.5 + 100.0 * c as f64, 74.5 + 75.0 * r as f64))).collect();
+        let corners: Vec<Vec2> = (0..3)
+            .flat_map(|r| (0..3).map(move |c| Vec2::new(99.5 + 100.0 * c as f64, 74.5 + 75.0 * r as f64)))
+            .collect();
         let cov = coverage(&[&corners], 3, 3, (400, 300));
         assert!((cov.share - 0.25).abs() < 0.02, "{}", cov.share);
         assert_eq!(cov.uncovered_frame_corners.len(), 4);
@@ -340,7 +355,8 @@ mod tests {
             distortion: fslcal_core::Distortion::from_opencv([-0.2, 0.05, 0.001, 0.0, 0.0]),
         };
         let pose = (Vec3::new(0.1, -0.2, 0.05), Vec3::new(-0.05, 0.02, 0.6));
-        let object_m: Vec<Vec3> = (0..12).map(|i| Vec3::new(0.02 * (i % 4) as f64, 0.02 * (i / 4) as f64, 0.0)).collect();
+        let object_m: Vec<Vec3> =
+            (0..12).map(|i| Vec3::new(0.02 * (i % 4) as f64, 0.02 * (i / 4) as f64, 0.0)).collect();
         let r = Rotation3::from_scaled_axis(pose.0);
         let image_px = object_m.iter().map(|o| camera.project(&(r * o + pose.1)).unwrap()).collect();
         let view = ViewPoints { object_m, image_px };

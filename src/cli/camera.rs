@@ -5,8 +5,8 @@ use crate::atomic_file::write_atomically;
 use crate::calibration::camera_json;
 use crate::camera::calibrate::{calibrate, CameraCalibration, CameraJob};
 use crate::camera::opencv_yaml::{self, CameraFileExtras};
-use crate::photo::identity::photos_exif;
 use crate::camera::residuals::FRAME_CORNER_SHARE;
+use crate::photo::identity::photos_exif;
 use crate::report::{self, camera::CameraReport};
 use anyhow::{bail, Context};
 use calib_targets::Checkerboard;
@@ -82,7 +82,8 @@ pub fn run(args: CameraArgs) -> anyhow::Result<ExitCode> {
         let (_, camera_serial, focal_length_mm) = photos_exif(&args.photos);
         let extras = CameraFileExtras { avg_reprojection_error: Some(cal.rms_px), camera_serial, focal_length_mm };
         let yaml = opencv_yaml::to_yaml(&cal.camera, &extras);
-        write_atomically(out, yaml.as_bytes()).with_context(|| format!("{}: cannot write the camera file", out.display()))?;
+        write_atomically(out, yaml.as_bytes())
+            .with_context(|| format!("{}: cannot write the camera file", out.display()))?;
         if !args.json {
             println!("wrote {}", out.display());
         }

@@ -1,10 +1,10 @@
 //! `fslcal check`: has the laser moved since it was calibrated?
 
 use super::body_check::BodyCheckArgs;
-use crate::photo::identity::ExpectedCamera;
 use super::progress;
 use crate::calibration;
 use crate::calibration::drift::{check, DriftCheck, FLAG_SIGMAS};
+use crate::photo::identity::ExpectedCamera;
 use crate::report::{self, check::CheckReport};
 use anyhow::{bail, Context};
 use std::path::{Path, PathBuf};
@@ -74,7 +74,8 @@ pub fn run(args: CheckArgs) -> anyhow::Result<ExitCode> {
         print!("{}", summary(&r));
     }
     if let Some(dir) = &args.report {
-        let index = report::check::write(dir, &CheckReport::of(&r, &cal)).with_context(|| format!("{}: cannot write the report", dir.display()))?;
+        let index = report::check::write(dir, &CheckReport::of(&r, &cal))
+            .with_context(|| format!("{}: cannot write the report", dir.display()))?;
         if !args.json {
             eprintln!("report: {}", index.display());
         }
@@ -96,7 +97,10 @@ fn name_of(file: &str) -> String {
 fn summary(r: &DriftCheck) -> String {
     let width = r.photos.iter().map(|p| name_of(&p.file).len()).max().unwrap_or(4).max(4);
     let mut s = format!("fslcal check: {} photos\n\n", r.photos.len());
-    s += &format!("  {:width$}  {:>19}  {:>7}  {:>9}  {:>8}  {}\n", "file", "dot px", "dist m", "offset px", "sigma px", "status");
+    s += &format!(
+        "  {:width$}  {:>19}  {:>7}  {:>9}  {:>8}  {}\n",
+        "file", "dot px", "dist m", "offset px", "sigma px", "status"
+    );
     for p in &r.photos {
         let dot = p.dot_px.map_or("-".into(), |d| format!("({:.1}, {:.1})", d[0], d[1]));
         let f = |x: Option<f64>, d: usize| x.map_or("-".to_string(), |x| format!("{x:.d$}"));
@@ -105,7 +109,13 @@ fn summary(r: &DriftCheck) -> String {
             (None, true) => "FLAG".to_string(),
             (None, false) => "ok".to_string(),
         };
-        s += &format!("  {:width$}  {dot:>19}  {:>7}  {:>9}  {:>8}  {status}\n", name_of(&p.file), f(p.distance_m, 3), f(p.offset_px, 2), f(p.explained_sigma_px, 2));
+        s += &format!(
+            "  {:width$}  {dot:>19}  {:>7}  {:>9}  {:>8}  {status}\n",
+            name_of(&p.file),
+            f(p.distance_m, 3),
+            f(p.offset_px, 2),
+            f(p.explained_sigma_px, 2)
+        );
     }
     let with_dot = r.photos.iter().filter(|p| p.explained_sigma_px.is_some()).count();
     let flagged = r.photos.iter().filter(|p| p.flag).count();

@@ -65,7 +65,14 @@ pub fn develop_one(raw: &Path, out_dir: &Path, sixteen_bit: bool) -> anyhow::Res
             let stride = frame.width * 3;
             let mut pixels = vec![[0u8; 2]; stride * frame.height];
             for_each_row(&frame, |y, row| {
-                write_row(row, balance.gains, &tone, Order::Rgb, &mut pixels[y * stride..(y + 1) * stride], u16::to_ne_bytes)
+                write_row(
+                    row,
+                    balance.gains,
+                    &tone,
+                    Order::Rgb,
+                    &mut pixels[y * stride..(y + 1) * stride],
+                    u16::to_ne_bytes,
+                )
             });
             drop(frame);
             encoder.write_image(pixels.as_flattened(), w, h, image::ExtendedColorType::Rgb16)
@@ -81,7 +88,8 @@ pub fn develop_one(raw: &Path, out_dir: &Path, sixteen_bit: bool) -> anyhow::Res
 }
 
 pub fn run(args: DevelopArgs) -> anyhow::Result<ExitCode> {
-    std::fs::create_dir_all(&args.out).with_context(|| format!("{}: cannot create the output folder", args.out.display()))?;
+    std::fs::create_dir_all(&args.out)
+        .with_context(|| format!("{}: cannot create the output folder", args.out.display()))?;
     let mut seen = std::collections::HashSet::new();
     for r in &args.raws {
         if !seen.insert(r.file_stem().map(|s| s.to_owned())) {

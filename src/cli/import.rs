@@ -101,9 +101,16 @@ pub fn run(args: ImportArgs) -> anyhow::Result<ExitCode> {
     };
     let size = signed_file::sign_to_file(&contents, &key, &args.out)?;
     if args.json {
-        println!("{}", json!({ "out": args.out.display().to_string(), "unit": unit, "size_bytes": size, "made_utc": utc_time::format_iso(made_utc_s) }));
+        println!(
+            "{}",
+            json!({ "out": args.out.display().to_string(), "unit": unit, "size_bytes": size, "made_utc": utc_time::format_iso(made_utc_s) })
+        );
     } else {
-        println!("{unit}: wrote {} ({size} bytes), calibrated {}", args.out.display(), utc_time::format_iso(made_utc_s));
+        println!(
+            "{unit}: wrote {} ({size} bytes), calibrated {}",
+            args.out.display(),
+            utc_time::format_iso(made_utc_s)
+        );
     }
     Ok(ExitCode::SUCCESS)
 }

@@ -39,7 +39,11 @@ pub fn run(args: KeygenArgs) -> anyhow::Result<ExitCode> {
         println!("{report}");
     } else {
         println!("secret key {} (mode 0600: keep it private)", args.out.display());
-        println!("public key {} (key id {}): give it to those who verify your files", pub_path.display(), KeyId::of(&public));
+        println!(
+            "public key {} (key id {}): give it to those who verify your files",
+            pub_path.display(),
+            KeyId::of(&public)
+        );
     }
     Ok(ExitCode::SUCCESS)
 }

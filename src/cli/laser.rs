@@ -1,20 +1,25 @@
 //! `fslcal laser`: the command a diver runs before a dive.
 
+use super::body_check::BodyCheckArgs;
 use super::pixels::{parse_pixel, read_dots_csv};
 use super::progress;
 use super::signing::{self, SigningArgs};
 use crate::atomic_file::write_atomically;
+use crate::calibration::camera_json;
+use crate::dot::candidates::DotDetectorParams;
+use crate::laser::fit::{Gates, Method};
+use crate::laser::pipeline::{
+    calibrate, HandDots, LaserCalibration, LaserError, LaserJob, PhotoReport, Target, TargetArg,
+};
+use crate::photo::identity::{photos_exif, PhotosExif};
+use crate::report::{
+    self,
+    laser::{LaserOutcome, LaserReport},
+};
 use crate::units::keys;
 use crate::utc_time;
-use fslcal_core::unit_file::{CameraIdentity, FitMethod, FitQuality, UnitFile};
-use crate::dot::candidates::DotDetectorParams;
-use crate::laser::pipeline::{calibrate, HandDots, LaserCalibration, LaserError, LaserJob, PhotoReport, Target, TargetArg};
-use crate::laser::fit::{Gates, Method};
-use crate::report::{self, laser::{LaserOutcome, LaserReport}};
 use anyhow::{bail, Context};
-use crate::calibration::camera_json;
-use super::body_check::BodyCheckArgs;
-use crate::photo::identity::{photos_exif, PhotosExif};
+use fslcal_core::unit_file::{CameraIdentity, FitMethod, FitQuality, UnitFile};
 use fslcal_core::CameraModel;
 use serde_json::json;
 use std::path::{Path, PathBuf};
@@ -134,7 +139,11 @@ pub fn run(args: LaserArgs) -> anyhow::Result<ExitCode> {
         camera,
         target: args.target.load().map_err(anyhow::Error::msg)?,
         method: args.method,
-        gates: Gates { baseline_range_m: args.baseline_range_mm, max_dot_offset_px: args.max_dot_offset_px, ..Gates::default() },
+        gates: Gates {
+            baseline_range_m: args.baseline_range_mm,
+            max_dot_offset_px: args.max_dot_offset_px,
+            ..Gates::default()
+        },
         detector: DotDetectorParams::default(),
         hand_dots,
     };
@@ -163,8 +172,12 @@ pub fn run(args: LaserArgs) -> anyhow::Result<ExitCode> {
     }
     write_report(&args, &job, LaserOutcome::Fitted(&cal))?;
     if !cal.accepted() {
-        let failed: Vec<String> =
-            cal.gates.iter().filter(|g| !g.pass).map(|g| format!("{} {} (limit {})", g.name, g.figure, g.limit)).collect();
+        let failed: Vec<String> = cal
+            .gates
+            .iter()
+            .filter(|g| !g.pass)
+            .map(|g| format!("{} {} (limit {})", g.name, g.figure, g.limit))
+            .collect();
         let note = if args.out.is_some() { "; nothing written" } else { "" };
         bail!("laser calibration rejected: {}{note}", failed.join(", "));
     }
@@ -181,14 +194,20 @@ pub fn run(args: LaserArgs) -> anyhow::Result<ExitCode> {
             depths.sort_by(f64::total_cmp);
             signing_args.water_depth_m = depths.get(depths.len() / 2).map(|&d| d as f32);
         }
-        let size = signing::sign_unit_file(out, &signing_args, prior.as_ref(), unit_contents(&target_label(&job.target), &job.camera, &cal))?;
+        let size = signing::sign_unit_file(
+            out,
+            &signing_args,
+            prior.as_ref(),
+            unit_contents(&target_label(&job.target), &job.camera, &cal),
+        )?;
         if !args.json {
             println!("wrote {} (signed, {size} bytes)", out.display());
         }
     } else if let Some(out) = &args.out {
         let mut text = serde_json::to_string_pretty(&report)?;
         text.push('\n');
-        write_atomically(out, text.as_bytes()).with_context(|| format!("{}: cannot write the result", out.display()))?;
+        write_atomically(out, text.as_bytes())
+            .with_context(|| format!("{}: cannot write the result", out.display()))?;
         if !args.json {
             println!("wrote {}", out.display());
         }
@@ -199,7 +218,8 @@ pub fn run(args: LaserArgs) -> anyhow::Result<ExitCode> {
 fn write_report(args: &LaserArgs, job: &LaserJob, outcome: LaserOutcome) -> anyhow::Result<()> {
     let Some(dir) = &args.report else { return Ok(()) };
     let report = LaserReport { job, camera_file: &args.camera, outcome };
-    let index = report::laser::write(dir, &report).with_context(|| format!("{}: cannot write the report", dir.display()))?;
+    let index =
+        report::laser::write(dir, &report).with_context(|| format!("{}: cannot write the report", dir.display()))?;
     if !args.json {
         // On stderr: a refused fit's summary went there too, and stdout may be piped.
         eprintln!("report: {}", index.display());
@@ -252,7 +272,13 @@ fn json_report(args: &LaserArgs, job: &LaserJob, cal: &LaserCalibration, identit
 /// a full path says nothing on another machine and would eat the file's 512 bytes.
 fn target_label(target: &Target) -> String {
     match target {
-        Target::Slate(m) => format!("slate:{}", m.slate.definition.file_name().map_or_else(|| m.slate.definition.display().to_string(), |n| n.to_string_lossy().into_owned())),
+        Target::Slate(m) => format!(
+            "slate:{}",
+            m.slate
+                .definition
+                .file_name()
+                .map_or_else(|| m.slate.definition.display().to_string(), |n| n.to_string_lossy().into_owned())
+        ),
         other => other.to_string(),
     }
 }
@@ -266,7 +292,9 @@ fn unit_contents<'a>(target: &'a str, camera: &CameraModel, cal: &LaserCalibrati
         camera: *camera,
         laser: f.laser,
         // The file keeps the upper triangle; average away the fit's rounding asymmetry.
-        laser_covariance: std::array::from_fn(|r| std::array::from_fn(|c| 0.5 * (f.covariance[r][c] + f.covariance[c][r]))),
+        laser_covariance: std::array::from_fn(|r| {
+            std::array::from_fn(|c| 0.5 * (f.covariance[r][c] + f.covariance[c][r]))
+        }),
         made_utc_s: utc_time::now_s(),
         water_depth_m: None,
         depth_range_m: Some([f.depth_range_m.0 as f32, f.depth_range_m.1 as f32]),
@@ -303,7 +331,10 @@ fn photo_table(photos: &[PhotoReport]) -> String {
         let resid = p.residual_px.map_or("-".into(), |r| format!("{r:.2}"));
         let status = match (&p.reason, p.dot_source) {
             (Some(r), _) => format!("{}: {r}", p.status),
-            (None, Some(src)) => format!("used ({})", serde_json::to_value(src).ok().and_then(|v| v.as_str().map(String::from)).unwrap_or_default()),
+            (None, Some(src)) => format!(
+                "used ({})",
+                serde_json::to_value(src).ok().and_then(|v| v.as_str().map(String::from)).unwrap_or_default()
+            ),
             (None, None) => p.status.to_string(),
         };
         s += &format!("  {:width$}  {dist:>7}  {dot:>19}  {resid:>8}  {status}\n", name_of(&p.file));
@@ -352,7 +383,13 @@ fn summary(args: &LaserArgs, job: &LaserJob, cal: &LaserCalibration) -> String {
     }
     s += "\n\ngates:\n";
     for g in &cal.gates {
-        s += &format!("  {}  {:28} {:>12}   limit {}\n", if g.pass { "pass" } else { "FAIL" }, g.name, g.figure, g.limit);
+        s += &format!(
+            "  {}  {:28} {:>12}   limit {}\n",
+            if g.pass { "pass" } else { "FAIL" },
+            g.name,
+            g.figure,
+            g.limit
+        );
     }
     s += if cal.accepted() { "\nverdict: ACCEPTED\n" } else { "\nverdict: REJECTED\n" };
     s

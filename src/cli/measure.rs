@@ -6,7 +6,9 @@ use super::progress;
 use crate::atomic_file::write_atomically;
 use crate::calibration::{self, Calibration};
 use crate::fish::labels::{read_labels, FishLabel};
-use crate::fish::measure::{camera_body_mismatch, distribution, ends_at_edge, measure, Distribution, Length, MeasureParams, Withheld};
+use crate::fish::measure::{
+    camera_body_mismatch, distribution, ends_at_edge, measure, Distribution, Length, MeasureParams, Withheld,
+};
 use crate::fish::{fish_ends, FishEnds, HeadCall, Mask};
 use anyhow::{bail, Context};
 use fslcal_core::Vec2;
@@ -142,7 +144,9 @@ fn head_call_text(call: HeadCall) -> &'static str {
         HeadCall::ForkNotch => "head told by the fork notch at the other end",
         HeadCall::NarrowPeduncle => "head told by the caudal peduncle and fin at the other end",
         HeadCall::Labelled => "head as labelled",
-        HeadCall::Unknown => "the mask does not tell head from tail (head and tail may be swapped; the length is the same)",
+        HeadCall::Unknown => {
+            "the mask does not tell head from tail (head and tail may be swapped; the length is the same)"
+        }
     }
 }
 
@@ -178,7 +182,8 @@ fn mask_only(args: &MeasureArgs, mask: &Path) -> anyhow::Result<ExitCode> {
 fn search_dot(cal: &Calibration, photo: &Path) -> Result<Vec2, Withheld> {
     use crate::dot::on_line::{find_dot_on_laser_line, LineSearch};
     let no_dot = |why: String| Withheld::NoDot { why };
-    let decoded = crate::vision::EncodedPhoto::read(photo).and_then(|p| p.decode_full()).map_err(|e| no_dot(e.to_string()))?;
+    let decoded =
+        crate::vision::EncodedPhoto::read(photo).and_then(|p| p.decode_full()).map_err(|e| no_dot(e.to_string()))?;
     find_dot_on_laser_line(&decoded.colour(), &cal.camera, &cal.laser, &LineSearch::default())
         .map(|d| d.pixel)
         .map_err(|e| no_dot(e.to_string()))
@@ -186,7 +191,9 @@ fn search_dot(cal: &Calibration, photo: &Path) -> Result<Vec2, Withheld> {
 
 #[cfg(not(feature = "vision"))]
 fn search_dot(_cal: &Calibration, _photo: &Path) -> Result<Vec2, Withheld> {
-    Err(Withheld::NoDot { why: "built without the vision feature, so dots must be given (--dot, --dots or labels)".into() })
+    Err(Withheld::NoDot {
+        why: "built without the vision feature, so dots must be given (--dot, --dots or labels)".into(),
+    })
 }
 
 /// A photo's size in pixels: a JPEG's or PNG's from its header, a raw's from its active area.
@@ -211,7 +218,15 @@ fn single(args: &MeasureArgs) -> anyhow::Result<ExitCode> {
         (Some(mask), _, _) => {
             let (m, ends) = load_ends(mask)?;
             if (m.width as u32, m.height as u32) != size {
-                bail!("{}: the mask is {}x{} but the photo {} is {}x{}", mask.display(), m.width, m.height, photo.display(), size.0, size.1);
+                bail!(
+                    "{}: the mask is {}x{} but the photo {} is {}x{}",
+                    mask.display(),
+                    m.width,
+                    m.height,
+                    photo.display(),
+                    size.0,
+                    size.1
+                );
             }
             (ends.head_px, ends.tail_px, ends.length_px / ends.chord_px.max(1e-9), Some(ends))
         }
@@ -228,16 +243,28 @@ fn single(args: &MeasureArgs) -> anyhow::Result<ExitCode> {
         Some(d) => Ok(d),
         None => search_dot(&cal, photo),
     };
-    let params = MeasureParams { dot_sigma_px: args.dot_sigma_px, allow_other_body: args.allow_other_body, ..MeasureParams::default() };
+    let params = MeasureParams {
+        dot_sigma_px: args.dot_sigma_px,
+        allow_other_body: args.allow_other_body,
+        ..MeasureParams::default()
+    };
     let result = dot.clone().and_then(|d| measure(&cal, head, tail, ratio, d, &params));
     let dot = dot.ok();
     let length = match (result, flags.is_empty()) {
         (Ok(l), true) => l,
         (Err(w), _) => {
             flags.push(w);
-            bail!("{}: length withheld: {}", photo.display(), flags.iter().map(Withheld::describe).collect::<Vec<_>>().join("; "))
+            bail!(
+                "{}: length withheld: {}",
+                photo.display(),
+                flags.iter().map(Withheld::describe).collect::<Vec<_>>().join("; ")
+            )
         }
-        (Ok(_), false) => bail!("{}: length withheld: {}", photo.display(), flags.iter().map(Withheld::describe).collect::<Vec<_>>().join("; ")),
+        (Ok(_), false) => bail!(
+            "{}: length withheld: {}",
+            photo.display(),
+            flags.iter().map(Withheld::describe).collect::<Vec<_>>().join("; ")
+        ),
     };
     if args.json {
         let mut v = json!({
@@ -303,7 +330,13 @@ fn mask_for(dir: &Path, photo: &Path) -> Option<PathBuf> {
         .find(|p| p.is_file() && p.canonicalize().ok() != photo.canonicalize().ok())
 }
 
-fn measure_photo(cal: &Calibration, photo: &Path, source: &Ends, dots: &[(String, Vec2)], params: &MeasureParams) -> Vec<FishRow> {
+fn measure_photo(
+    cal: &Calibration,
+    photo: &Path,
+    source: &Ends,
+    dots: &[(String, Vec2)],
+    params: &MeasureParams,
+) -> Vec<FishRow> {
     let size = photo_size(photo);
     let body = match &size {
         Ok(s) => camera_body_mismatch(cal, photo, *s, params.allow_other_body),
@@ -311,7 +344,11 @@ fn measure_photo(cal: &Calibration, photo: &Path, source: &Ends, dots: &[(String
     };
     let hand_dot = || {
         let name = photo.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
-        dots.iter().find(|(f, _)| Path::new(f) == photo || Path::new(f).file_name().is_some_and(|n| n.to_string_lossy() == name)).map(|d| d.1)
+        dots.iter()
+            .find(|(f, _)| {
+                Path::new(f) == photo || Path::new(f).file_name().is_some_and(|n| n.to_string_lossy() == name)
+            })
+            .map(|d| d.1)
     };
     let mut fish: Vec<(Option<String>, Result<(Vec2, Vec2, f64, bool, HeadCall), Withheld>, Option<Vec2>)> = Vec::new();
     match source {
@@ -347,7 +384,16 @@ fn measure_photo(cal: &Calibration, photo: &Path, source: &Ends, dots: &[(String
                 None => searched.get_or_init(|| search_dot(cal, photo)).clone(),
             };
             let mut flags: Vec<Withheld> = body.iter().cloned().collect();
-            let mut row = FishRow { photo: photo.to_path_buf(), fish: i + 1, species, head_px: None, tail_px: None, dot_px: dot.clone().ok(), head_call: None, result: Err(vec![]) };
+            let mut row = FishRow {
+                photo: photo.to_path_buf(),
+                fish: i + 1,
+                species,
+                head_px: None,
+                tail_px: None,
+                dot_px: dot.clone().ok(),
+                head_call: None,
+                result: Err(vec![]),
+            };
             let mut length = None;
             match ends {
                 Err(w) => flags.push(w),
@@ -389,7 +435,11 @@ fn batch(args: &MeasureArgs) -> anyhow::Result<ExitCode> {
         Some(csv) => read_dots_csv(csv)?,
         None => Vec::new(),
     };
-    let params = MeasureParams { dot_sigma_px: args.dot_sigma_px, allow_other_body: args.allow_other_body, ..MeasureParams::default() };
+    let params = MeasureParams {
+        dot_sigma_px: args.dot_sigma_px,
+        allow_other_body: args.allow_other_body,
+        ..MeasureParams::default()
+    };
     let bar = progress::bar(args.photos.len(), "photos", args.json);
     let per_photo: Vec<Vec<FishRow>> = args
         .photos
@@ -401,17 +451,23 @@ fn batch(args: &MeasureArgs) -> anyhow::Result<ExitCode> {
         })
         .collect();
     bar.finish_and_clear();
-    let unlabelled: Vec<&PathBuf> = args.photos.iter().zip(&per_photo).filter(|(_, r)| r.is_empty()).map(|(p, _)| p).collect();
+    let unlabelled: Vec<&PathBuf> =
+        args.photos.iter().zip(&per_photo).filter(|(_, r)| r.is_empty()).map(|(p, _)| p).collect();
     let rows: Vec<FishRow> = per_photo.into_iter().flatten().collect();
     if rows.is_empty() {
-        bail!("none of the {} photos has a labelled fish: do the label file's photo names match the photos' file names?", args.photos.len());
+        bail!(
+            "none of the {} photos has a labelled fish: do the label file's photo names match the photos' file names?",
+            args.photos.len()
+        );
     }
     let summary = Summary::of(&rows);
     if let Some(out) = &args.out {
-        write_atomically(out, rows_csv(&rows).as_bytes()).with_context(|| format!("{}: cannot write the lengths", out.display()))?;
+        write_atomically(out, rows_csv(&rows).as_bytes())
+            .with_context(|| format!("{}: cannot write the lengths", out.display()))?;
     }
     if let Some(out) = &args.summary_out {
-        write_atomically(out, summary.csv().as_bytes()).with_context(|| format!("{}: cannot write the summary", out.display()))?;
+        write_atomically(out, summary.csv().as_bytes())
+            .with_context(|| format!("{}: cannot write the summary", out.display()))?;
     }
     if args.json {
         let v = json!({
@@ -476,7 +532,10 @@ fn name_of(p: &Path) -> String {
 
 fn table(rows: &[FishRow]) -> String {
     let width = rows.iter().map(|r| name_of(&r.photo).len()).max().unwrap_or(5).max(5);
-    let mut s = format!("  {:width$}  {:>4}  {:12}  {:>20}  {:>15}  {}\n", "photo", "fish", "species", "length mm (1-sigma)", "distance m", "status");
+    let mut s = format!(
+        "  {:width$}  {:>4}  {:12}  {:>20}  {:>15}  {}\n",
+        "photo", "fish", "species", "length mm (1-sigma)", "distance m", "status"
+    );
     for r in rows {
         let (length, distance, status) = match &r.result {
             Ok(l) => (
@@ -484,12 +543,18 @@ fn table(rows: &[FishRow]) -> String {
                 format!("{:.3} ± {:.3}", l.distance_m, l.distance_sigma_m),
                 "measured".to_string(),
             ),
-            Err(flags) => {
-                ("-".into(), "-".into(), format!("withheld: {}", flags.iter().map(Withheld::describe).collect::<Vec<_>>().join("; ")))
-            }
+            Err(flags) => (
+                "-".into(),
+                "-".into(),
+                format!("withheld: {}", flags.iter().map(Withheld::describe).collect::<Vec<_>>().join("; ")),
+            ),
         };
         let species = r.species.as_deref().unwrap_or("-");
-        s += &format!("  {:width$}  {:>4}  {species:12}  {length:>20}  {distance:>15}  {status}\n", name_of(&r.photo), r.fish);
+        s += &format!(
+            "  {:width$}  {:>4}  {species:12}  {length:>20}  {distance:>15}  {status}\n",
+            name_of(&r.photo),
+            r.fish
+        );
     }
     s
 }
@@ -499,7 +564,10 @@ fn rows_csv(rows: &[FishRow]) -> String {
     let xy = |p: Option<Vec2>| p.map_or(",".to_string(), |p| format!("{:.2},{:.2}", p.x, p.y));
     for r in rows {
         let (numbers, flags) = match &r.result {
-            Ok(l) => (format!("{:.5},{:.5},{:.4},{:.5}", l.length_m, l.length_sigma_m, l.distance_m, l.distance_sigma_m), String::new()),
+            Ok(l) => (
+                format!("{:.5},{:.5},{:.4},{:.5}", l.length_m, l.length_sigma_m, l.distance_m, l.distance_sigma_m),
+                String::new(),
+            ),
             Err(f) => (",,,".to_string(), f.iter().map(flag_name).collect::<Vec<_>>().join(";")),
         };
         s += &format!(
@@ -599,7 +667,13 @@ impl Summary {
             s += &format!("\n{group}: n {}, mean {:.1} mm; {} mm\n", d.n, d.mean_m * 1e3, pct.join(", "));
             let most = d.histogram.iter().map(|h| h.2).max().unwrap_or(1).max(1);
             for (a, b, n) in &d.histogram {
-                s += &format!("  {:7.1}-{:<7.1} mm {:>5}  {}\n", a * 1e3, b * 1e3, n, "#".repeat((40 * n).div_ceil(most)));
+                s += &format!(
+                    "  {:7.1}-{:<7.1} mm {:>5}  {}\n",
+                    a * 1e3,
+                    b * 1e3,
+                    n,
+                    "#".repeat((40 * n).div_ceil(most))
+                );
             }
         }
         s

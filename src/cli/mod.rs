@@ -1,25 +1,25 @@
 //! The command line: one file per subcommand, each with its clap `Args` (whose doc comments
 //! are the help text) and a `run()`.
 
+mod body_check;
+#[cfg(feature = "vision")]
+mod camera;
+#[cfg(feature = "vision")]
+mod check;
+mod develop;
 mod export;
 mod import;
 mod inspect;
 mod keygen;
 #[cfg(feature = "vision")]
-mod camera;
-mod body_check;
-mod develop;
-#[cfg(feature = "vision")]
-mod check;
-#[cfg(feature = "vision")]
 mod laser;
-#[cfg(feature = "vision")]
-mod validate;
 mod measure;
 mod pixels;
 mod progress;
 mod signing;
 mod units;
+#[cfg(feature = "vision")]
+mod validate;
 mod verify;
 
 pub use develop::develop_one;

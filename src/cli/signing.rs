@@ -42,7 +42,10 @@ impl SigningArgs {
     /// The canonical unit id and the key, both required to sign.
     pub fn unit_and_key(&self, out: &std::path::Path) -> anyhow::Result<(String, PathBuf)> {
         let (Some(unit), Some(key)) = (&self.unit, &self.key) else {
-            anyhow::bail!("{}: a signed unit file needs --unit FSL-NN and --key KEY (make one with `fslcal keygen`)", out.display());
+            anyhow::bail!(
+                "{}: a signed unit file needs --unit FSL-NN and --key KEY (make one with `fslcal keygen`)",
+                out.display()
+            );
         };
         Ok((signed_file::unit_id(unit).map_err(|e: UnitFileError| anyhow::anyhow!(e))?, key.clone()))
     }
@@ -60,7 +63,10 @@ pub struct PriorUnit {
 /// Reads `--camera`: an OpenCV camera file, or a previous signed unit file of the same unit
 /// (told apart by its magic), which must be intact and, when --unit is given, that unit's.
 /// Also returns the body (and zoom) the photos must come from, where the file records them.
-pub fn read_camera(path: &std::path::Path, signing: &SigningArgs) -> anyhow::Result<(CameraModel, Option<PriorUnit>, ExpectedCamera)> {
+pub fn read_camera(
+    path: &std::path::Path,
+    signing: &SigningArgs,
+) -> anyhow::Result<(CameraModel, Option<PriorUnit>, ExpectedCamera)> {
     let bytes = signed_file::read_bytes(path)?;
     if !bytes.starts_with(&unit_file::MAGIC) {
         let (camera, extras) = crate::camera::opencv_yaml::read(path)?;
@@ -79,7 +85,8 @@ pub fn read_camera(path: &std::path::Path, signing: &SigningArgs) -> anyhow::Res
         }
     }
     let id = &c.camera_identity;
-    let prior = PriorUnit { unit: theirs, make: id.make.into(), model: id.model.into(), serial: id.serial.map(str::to_string) };
+    let prior =
+        PriorUnit { unit: theirs, make: id.make.into(), model: id.model.into(), serial: id.serial.map(str::to_string) };
     let expected = ExpectedCamera { serial: prior.serial.clone(), focal_length_mm: None };
     Ok((c.camera, Some(prior), expected))
 }
@@ -106,6 +113,7 @@ pub fn sign_unit_file(
         signing.camera_serial = signing.camera_serial.or_else(|| p.serial.clone());
     }
     let (unit, key) = signing.unit_and_key(out)?;
-    let contents = UnitFile { unit: &unit, camera_identity: signing.identity(), water_depth_m: signing.water_depth_m, ..contents };
+    let contents =
+        UnitFile { unit: &unit, camera_identity: signing.identity(), water_depth_m: signing.water_depth_m, ..contents };
     Ok(signed_file::sign_to_file(&contents, &key, out)?)
 }

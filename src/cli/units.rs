@@ -77,7 +77,13 @@ fn is_json(path: &Path) -> bool {
         .unwrap_or(false)
 }
 
-fn add(registry: &Registry, file: &Path, trust: Option<&Path>, unit: Option<&str>, as_json: bool) -> anyhow::Result<ExitCode> {
+fn add(
+    registry: &Registry,
+    file: &Path,
+    trust: Option<&Path>,
+    unit: Option<&str>,
+    as_json: bool,
+) -> anyhow::Result<ExitCode> {
     if is_json(file) {
         let (dest, unit, pass) = registry.add_validation(file, unit)?;
         if as_json {
@@ -138,14 +144,20 @@ fn list(registry: &Registry, trust: Option<&Path>, as_json: bool) -> anyhow::Res
                 })
             })
             .collect();
-        println!("{}", serde_json::to_string_pretty(&json!({ "registry": registry.root.display().to_string(), "units": rows }))?);
+        println!(
+            "{}",
+            serde_json::to_string_pretty(&json!({ "registry": registry.root.display().to_string(), "units": rows }))?
+        );
         return Ok(ExitCode::SUCCESS);
     }
     if units.is_empty() {
         println!("{}: no units yet; file calibrations with `fslcal units add FILE.fslcal`", registry.root.display());
         return Ok(ExitCode::SUCCESS);
     }
-    println!("{:8} {:>4}  {:20} {:>6}  {:16}  {:16}  status", "unit", "cals", "current (made)", "age", "signer", "validation");
+    println!(
+        "{:8} {:>4}  {:20} {:>6}  {:16}  {:16}  status",
+        "unit", "cals", "current (made)", "age", "signer", "validation"
+    );
     for u in &units {
         let (made, age, signer, status) = match &u.current {
             Some(c) => (
@@ -181,11 +193,17 @@ fn diff(old: &Path, new: &Path, as_json: bool) -> anyhow::Result<ExitCode> {
     if units.0 != units.1 {
         println!("note: different units; the errors below are what swapping their files would cause");
     }
-    println!("laser direction changed {:.3} deg, origin moved {:.1} mm", change.direction_change_deg, change.origin_change_mm);
+    println!(
+        "laser direction changed {:.3} deg, origin moved {:.1} mm",
+        change.direction_change_deg, change.origin_change_mm
+    );
     println!("using the old file after the change (a {:.0} mm fish square to the camera):", REFERENCE_FISH_M * 1e3);
     for e in &change.errors {
-        let d = e.distance_error_m.map_or("-".into(), |d| format!("{:+.1} mm ({:+.2}%)", d * 1e3, 100.0 * d / e.depth_m));
-        let l = e.length_error_pct.map_or("-".into(), |p| format!("{:+.1} mm ({p:+.2}%)", p / 100.0 * REFERENCE_FISH_M * 1e3));
+        let d =
+            e.distance_error_m.map_or("-".into(), |d| format!("{:+.1} mm ({:+.2}%)", d * 1e3, 100.0 * d / e.depth_m));
+        let l = e
+            .length_error_pct
+            .map_or("-".into(), |p| format!("{:+.1} mm ({p:+.2}%)", p / 100.0 * REFERENCE_FISH_M * 1e3));
         println!("  at {:.0} m: distance {d}, length {l}", e.depth_m);
     }
     Ok(ExitCode::SUCCESS)

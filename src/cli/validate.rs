@@ -1,13 +1,13 @@
 //! `fslcal validate`: the slate-length check of a calibration.
 
 use super::body_check::BodyCheckArgs;
-use crate::photo::identity::ExpectedCamera;
 use super::progress;
 use crate::calibration;
+use crate::calibration::validate::{validate, LengthRule, Validation, ValidationJob};
 use crate::dot::candidates::DotDetectorParams;
 use crate::laser::pipeline::TargetArg;
+use crate::photo::identity::ExpectedCamera;
 use crate::report::{self, validate::ValidationReport};
-use crate::calibration::validate::{validate, LengthRule, Validation, ValidationJob};
 use anyhow::{bail, Context};
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
@@ -90,7 +90,8 @@ pub fn run(args: ValidateArgs) -> anyhow::Result<ExitCode> {
     }
     if let Some(dir) = &args.report {
         let page = ValidationReport::of(&v, &args.cal, job.target.to_string());
-        let index = report::validate::write(dir, &page).with_context(|| format!("{}: cannot write the report", dir.display()))?;
+        let index = report::validate::write(dir, &page)
+            .with_context(|| format!("{}: cannot write the report", dir.display()))?;
         if !args.json {
             eprintln!("report: {}", index.display());
         }
@@ -136,9 +137,15 @@ fn name_of(file: &str) -> String {
 
 fn summary(v: &Validation) -> String {
     let rule = serde_json::to_value(v.rule).ok().and_then(|r| r.as_str().map(String::from)).unwrap_or_default();
-    let mut s = format!("fslcal validate: length `{}` ({:.1} mm), rule {rule}, tolerance ±{}%\n\n", v.length_name, v.true_mm, v.tolerance_pct);
+    let mut s = format!(
+        "fslcal validate: length `{}` ({:.1} mm), rule {rule}, tolerance ±{}%\n\n",
+        v.length_name, v.true_mm, v.tolerance_pct
+    );
     let width = v.photos.iter().map(|p| name_of(&p.file).len()).max().unwrap_or(4).max(4);
-    s += &format!("  {:width$}  {:>7}  {:>11}  {:>8}  {:>8}  {}\n", "file", "dist m", "measured mm", "error %", "inliers", "status");
+    s += &format!(
+        "  {:width$}  {:>7}  {:>11}  {:>8}  {:>8}  {}\n",
+        "file", "dist m", "measured mm", "error %", "inliers", "status"
+    );
     for p in &v.photos {
         let f = |x: Option<f64>, d: usize| x.map_or("-".to_string(), |x| format!("{x:.d$}"));
         let status = match (p.pass, &p.reason) {
@@ -148,17 +155,31 @@ fn summary(v: &Validation) -> String {
             (None, None) => "skipped".to_string(),
         };
         let inl = p.target_inliers.map_or("-".to_string(), |n| n.to_string());
-        s += &format!("  {:width$}  {:>7}  {:>11}  {:>8}  {inl:>8}  {status}\n", name_of(&p.file), f(p.distance_m, 3), f(p.measured_mm, 1), f(p.error_pct.map(|e| e), 2));
+        s += &format!(
+            "  {:width$}  {:>7}  {:>11}  {:>8}  {inl:>8}  {status}\n",
+            name_of(&p.file),
+            f(p.distance_m, 3),
+            f(p.measured_mm, 1),
+            f(p.error_pct.map(|e| e), 2)
+        );
     }
     let errs: Vec<f64> = v.photos.iter().filter_map(|p| p.error_pct).collect();
     if !errs.is_empty() {
         let rms = (errs.iter().map(|e| e * e).sum::<f64>() / errs.len() as f64).sqrt();
         let worst = errs.iter().fold(0.0f64, |a, e| a.max(e.abs()));
         let outside = errs.iter().filter(|e| e.abs() > v.tolerance_pct).count();
-        s += &format!("\nlength error: RMS {rms:.2}%, worst {worst:.2}%; outside tolerance {outside} of {}\n", errs.len());
+        s += &format!(
+            "\nlength error: RMS {rms:.2}%, worst {worst:.2}%; outside tolerance {outside} of {}\n",
+            errs.len()
+        );
     }
     match v.slope_pct_per_m {
-        Some((b, sd)) => s += &format!("error against distance: {b:+.2} ±{sd:.2} %/m{}\n", if v.trend_fails { "  TREND: the laser's direction is wrong" } else { "" }),
+        Some((b, sd)) => {
+            s += &format!(
+                "error against distance: {b:+.2} ±{sd:.2} %/m{}\n",
+                if v.trend_fails { "  TREND: the laser's direction is wrong" } else { "" }
+            )
+        }
         None => s += "error against distance: not judged (needs 3 photos spread over 0.5 m or more)\n",
     }
     s += if v.pass { "\nverdict: PASS\n" } else { "\nverdict: FAIL\n" };

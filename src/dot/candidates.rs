@@ -223,9 +223,8 @@ pub fn find_dot_candidates(
 
     // Blob mask: green excess above threshold, plus saturated pixels (the white core of a
     // near dot has no green excess of its own).
-    let inside = |x: usize, y: usize| {
-        point_in_convex_polygon(&region.polygon, Vec2::new((x0 + x) as f64, (y0 + y) as f64))
-    };
+    let inside =
+        |x: usize, y: usize| point_in_convex_polygon(&region.polygon, Vec2::new((x0 + x) as f64, (y0 + y) as f64));
     let mut label = vec![0u32; w * h];
     let mut candidates = Vec::new();
     let mut stack = Vec::new();
@@ -444,7 +443,13 @@ fn refine_centre(img: &ColourView, rough: Vec2, blob_radius_px: f64) -> Option<V
 /// Location of the peak of the dot signal `signal(G, B)` smoothed by a Gaussian the size of
 /// the dot, within `reach` of `c`, to sub-pixel by a quadratic through the peak's
 /// neighbours. For a known spot shape in white noise this is the maximum-likelihood centre.
-fn matched_filter_peak(img: &ColourView, c: Vec2, reach: f64, blob_radius_px: f64, signal: &dyn Fn(f64, f64) -> f64) -> Option<Vec2> {
+fn matched_filter_peak(
+    img: &ColourView,
+    c: Vec2,
+    reach: f64,
+    blob_radius_px: f64,
+    signal: &dyn Fn(f64, f64) -> f64,
+) -> Option<Vec2> {
     let sigma = (0.7 * blob_radius_px).clamp(1.0, 4.0);
     let k = (3.0 * sigma).ceil() as i64;
     let half = reach.ceil() as i64 + k + 1;
@@ -495,7 +500,11 @@ fn matched_filter_peak(img: &ColourView, c: Vec2, reach: f64, blob_radius_px: f6
     let at = |dx: i64, dy: i64| f[((half + dy) as usize) * n + (half + dx) as usize];
     let vertex = |m: f64, z: f64, p: f64| {
         let d = m - 2.0 * z + p;
-        if d < 0.0 { (0.5 * (m - p) / d).clamp(-0.5, 0.5) } else { 0.0 }
+        if d < 0.0 {
+            (0.5 * (m - p) / d).clamp(-0.5, 0.5)
+        } else {
+            0.0
+        }
     };
     let ox = vertex(at(bx - 1, by), best, at(bx + 1, by));
     let oy = vertex(at(bx, by - 1), best, at(bx, by + 1));
@@ -580,13 +589,20 @@ mod tests {
         let view = ColourView { width: w, height: h, stride: w * 3, order: ChannelOrder::Rgb, data: &data };
         let p = DotDetectorParams::default();
         let right_half = SearchRegion {
-            polygon: vec![Vec2::new(100.0, 0.0), Vec2::new(199.0, 0.0), Vec2::new(199.0, 149.0), Vec2::new(100.0, 149.0)],
+            polygon: vec![
+                Vec2::new(100.0, 0.0),
+                Vec2::new(199.0, 0.0),
+                Vec2::new(199.0, 149.0),
+                Vec2::new(100.0, 149.0),
+            ],
             band: None,
         };
         assert!(find_dot_candidates(&view, &right_half, &p, 4).is_empty());
-        let band = SearchRegion { polygon: vec![], band: Some((vec![Vec2::new(0.0, 10.0), Vec2::new(199.0, 10.0)], 20.0)) };
+        let band =
+            SearchRegion { polygon: vec![], band: Some((vec![Vec2::new(0.0, 10.0), Vec2::new(199.0, 10.0)], 20.0)) };
         assert!(find_dot_candidates(&view, &band, &p, 4).is_empty());
-        let band = SearchRegion { polygon: vec![], band: Some((vec![Vec2::new(0.0, 75.0), Vec2::new(199.0, 85.0)], 20.0)) };
+        let band =
+            SearchRegion { polygon: vec![], band: Some((vec![Vec2::new(0.0, 75.0), Vec2::new(199.0, 85.0)], 20.0)) };
         let c = find_dot_candidates(&view, &band, &p, 4);
         assert_eq!(c.len(), 1);
         assert!((c[0].pixel - truth).norm() < 0.15, "{:?}", c[0].pixel);

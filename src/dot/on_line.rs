@@ -136,7 +136,9 @@ pub fn find_dot_on_laser_line(
     // clipped (a near dot that large has a clipped core), and a dot off the line is a claim
     // of drift that needs a strong blob, not a speck of texture.
     found.retain(|c| c.saturated_core || c.radius_px <= MAX_UNCLIPPED_RADIUS_PX);
-    found.retain(|c| c.snr >= OFF_LINE_MIN_SNR || crate::dot::candidates::distance_to_polyline(&line, c.pixel) <= ON_LINE_PX);
+    found.retain(|c| {
+        c.snr >= OFF_LINE_MIN_SNR || crate::dot::candidates::distance_to_polyline(&line, c.pixel) <= ON_LINE_PX
+    });
     let Some(best) = found.first().cloned() else {
         return Err(DotOnLineError::NoDot { half_width_px: hw });
     };
@@ -147,7 +149,14 @@ pub fn find_dot_on_laser_line(
 }
 
 /// Candidates in every piece of the band, one per blob, best first.
-fn search_pieces(img: &ColourView, line: &[Vec2], pieces: &[Vec<Vec2>], hw: f64, pad: f64, params: &DotDetectorParams) -> Vec<DotCandidate> {
+fn search_pieces(
+    img: &ColourView,
+    line: &[Vec2],
+    pieces: &[Vec<Vec2>],
+    hw: f64,
+    pad: f64,
+    params: &DotDetectorParams,
+) -> Vec<DotCandidate> {
     let mut found: Vec<DotCandidate> = Vec::new();
     for piece in pieces.iter().filter(|p| p.len() >= 2) {
         let (a, b) = (piece[0], piece[piece.len() - 1]);
@@ -201,7 +210,10 @@ mod tests {
             // taken from a wrong blob.
             if i == 7 {
                 if let Err(e) = &found {
-                    eprintln!("photo {i} ({:?}, {:.2} m, on black: {}): refused: {e}", spec.water, truth.depth_m, truth.on_black_square);
+                    eprintln!(
+                        "photo {i} ({:?}, {:.2} m, on black: {}): refused: {e}",
+                        spec.water, truth.depth_m, truth.on_black_square
+                    );
                     continue;
                 }
             }
@@ -225,7 +237,11 @@ mod tests {
         let e = find_dot_on_laser_line(&view(&scene.image), &camera, &laser, &LineSearch::default()).unwrap_err();
         assert!(matches!(e, DotOnLineError::NoDot { .. }), "{e}");
         // A line pointing out of the frame sideways.
-        let away = LaserLine::from_point_direction(fslcal_core::Vec3::new(2.0, 0.0, 0.0), fslcal_core::Vec3::new(1.0, 0.0, 0.3)).unwrap();
+        let away = LaserLine::from_point_direction(
+            fslcal_core::Vec3::new(2.0, 0.0, 0.0),
+            fslcal_core::Vec3::new(1.0, 0.0, 0.3),
+        )
+        .unwrap();
         let e = find_dot_on_laser_line(&view(&scene.image), &camera, &away, &LineSearch::default()).unwrap_err();
         assert!(matches!(e, DotOnLineError::LineOutsideImage { .. }), "{e}");
     }

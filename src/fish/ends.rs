@@ -185,7 +185,9 @@ pub fn fish_ends(mask: &Mask) -> Result<FishEnds, FishError> {
     let samples = spine.samples(400);
     let ordered: Vec<Vec2> = if tail_is_b { samples } else { samples.into_iter().rev().collect() };
     centre.extend(
-        ordered.into_iter().filter(|p| (p - head_px).dot(&head.outward) < 0.0 && (p - tail_px).dot(&tail.outward) < 0.0),
+        ordered
+            .into_iter()
+            .filter(|p| (p - head_px).dot(&head.outward) < 0.0 && (p - tail_px).dot(&tail.outward) < 0.0),
     );
     centre.push(tail_px);
     let chord_px = (tail_px - head_px).norm();
@@ -334,10 +336,12 @@ impl Spine {
 
     /// Largest offset of the spine from its chord, over the chord's length.
     fn bow(&self) -> f64 {
-        (0..=50).map(|k| {
-            let t = k as f64 / 50.0;
-            (t * (1.0 - t) * (self.c[0] + self.c[1] * t)).abs()
-        }).fold(0.0, f64::max)
+        (0..=50)
+            .map(|k| {
+                let t = k as f64 / 50.0;
+                (t * (1.0 - t) * (self.c[0] + self.c[1] * t)).abs()
+            })
+            .fold(0.0, f64::max)
     }
 
     /// `n + 1` points along the body, `t` from 0 to 1.
@@ -451,4 +455,3 @@ fn examine_end(fish: &Mask, spine: &Spine, at_end: bool, bent: bool) -> EndLook 
     let flare = widest_behind as f64 / narrowest.max(1) as f64;
     EndLook { outward, anterior_px: point(far), exit_px, fork, flare }
 }
-

@@ -34,7 +34,8 @@ impl FishLabel {
 /// Reads a label file; JSON (Label Studio) or CSV by its content.
 pub fn read_labels(path: &Path) -> Result<Vec<FishLabel>, FishError> {
     let name = path.display().to_string();
-    let text = std::fs::read_to_string(path).map_err(|e| FishError::Labels { path: name.clone(), why: e.to_string() })?;
+    let text =
+        std::fs::read_to_string(path).map_err(|e| FishError::Labels { path: name.clone(), why: e.to_string() })?;
     let labels = if text.trim_start().starts_with(['[', '{']) { label_studio(&text) } else { csv(&text) }
         .map_err(|why| FishError::Labels { path: name.clone(), why })?;
     if labels.is_empty() {
@@ -68,10 +69,17 @@ fn csv(text: &str) -> Result<Vec<FishLabel>, String> {
             }
             continue;
         }
-        let cell = |name: &str| columns.iter().position(|c| c == name).and_then(|i| cells.get(i)).copied().filter(|c| !c.is_empty());
+        let cell = |name: &str| {
+            columns.iter().position(|c| c == name).and_then(|i| cells.get(i)).copied().filter(|c| !c.is_empty())
+        };
         let number = |name: &str| -> Result<Option<f64>, String> {
             cell(name)
-                .map(|c| c.parse::<f64>().ok().filter(|v| v.is_finite()).ok_or(format!("line {}: `{name}` is `{c}`, not a number of pixels", n + 1)))
+                .map(|c| {
+                    c.parse::<f64>()
+                        .ok()
+                        .filter(|v| v.is_finite())
+                        .ok_or(format!("line {}: `{name}` is `{c}`, not a number of pixels", n + 1))
+                })
                 .transpose()
         };
         let pair = |x: &str, y: &str| -> Result<Option<Vec2>, String> {
@@ -137,7 +145,9 @@ fn label_studio(text: &str) -> Result<Vec<FishLabel>, String> {
                 species = Some(choice.to_string());
                 continue;
             }
-            let Some(which) = value["keypointlabels"].as_array().and_then(|l| l.first()).and_then(Value::as_str).and_then(part) else {
+            let Some(which) =
+                value["keypointlabels"].as_array().and_then(|l| l.first()).and_then(Value::as_str).and_then(part)
+            else {
                 continue;
             };
             let (w, h) = (r["original_width"].as_f64(), r["original_height"].as_f64());
@@ -153,10 +163,20 @@ fn label_studio(text: &str) -> Result<Vec<FishLabel>, String> {
             }
         }
         if heads.len() != tails.len() {
-            return Err(format!("task {t} ({photo}): {} head and {} tail keypoints; every fish needs both", heads.len(), tails.len()));
+            return Err(format!(
+                "task {t} ({photo}): {} head and {} tail keypoints; every fish needs both",
+                heads.len(),
+                tails.len()
+            ));
         }
         for (head_px, tail_px) in heads.into_iter().zip(tails) {
-            out.push(FishLabel { photo: photo.to_string(), head_px, tail_px, dot_px: dots.first().copied(), species: species.clone() });
+            out.push(FishLabel {
+                photo: photo.to_string(),
+                head_px,
+                tail_px,
+                dot_px: dots.first().copied(),
+                species: species.clone(),
+            });
         }
     }
     Ok(out)
@@ -173,14 +193,23 @@ mod tests {
         assert_eq!(a[1].dot_px, Some(Vec2::new(50.5, 60.0)));
         assert_eq!(a[1].species.as_deref(), Some("snapper"));
         let b = csv("species,photo,tail_x,tail_y,head_x,head_y\ngrouper,x.jpg,5,6,7,8\n").unwrap();
-        assert_eq!((b[0].head_px, b[0].tail_px, b[0].species.as_deref()), (Vec2::new(7.0, 8.0), Vec2::new(5.0, 6.0), Some("grouper")));
+        assert_eq!(
+            (b[0].head_px, b[0].tail_px, b[0].species.as_deref()),
+            (Vec2::new(7.0, 8.0), Vec2::new(5.0, 6.0), Some("grouper"))
+        );
         assert!(csv("x.jpg,1,2,3\n").unwrap_err().contains("line 1"));
         assert!(csv("x.jpg,1,2,3,4,5\n").unwrap_err().contains("go together"));
     }
 
     #[test]
     fn label_studio_upload_names_match_photos() {
-        let l = FishLabel { photo: "/data/upload/3/8f2a91c0-P7010042.JPG".into(), head_px: Vec2::zeros(), tail_px: Vec2::zeros(), dot_px: None, species: None };
+        let l = FishLabel {
+            photo: "/data/upload/3/8f2a91c0-P7010042.JPG".into(),
+            head_px: Vec2::zeros(),
+            tail_px: Vec2::zeros(),
+            dot_px: None,
+            species: None,
+        };
         assert!(l.names_photo(Path::new("dive/P7010042.JPG")));
         assert!(!l.names_photo(Path::new("dive/7010042.JPG")));
     }

@@ -1,9 +1,9 @@
 //! A fish's length from its end points, the laser dot and a calibration, with its 1-sigma,
 //! and the reasons to withhold a number rather than print a wrong one.
 
+use crate::calibration::Calibration;
 use crate::photo::exif::PhotoExif;
 use crate::photo::identity::{check_photo, ExpectedCamera};
-use crate::calibration::Calibration;
 use fslcal_core::{CameraModel, Vec2};
 use serde::Serialize;
 use std::path::Path;
@@ -36,7 +36,9 @@ impl Withheld {
         match self {
             Withheld::NoDot { why } => format!("no laser dot: {why}"),
             Withheld::DotOffLaserLine { offset_px, allowed_px } => {
-                format!("dot {offset_px:.1} px off the laser line (allowed {allowed_px:.1} px): calibration does not hold")
+                format!(
+                    "dot {offset_px:.1} px off the laser line (allowed {allowed_px:.1} px): calibration does not hold"
+                )
             }
             Withheld::OutsideCalibratedRange { distance_m, range_m } => {
                 format!("distance {distance_m:.2} m outside the calibrated {:.2}-{:.2} m", range_m.0, range_m.1)
@@ -123,10 +125,16 @@ pub fn measure(
 ) -> Result<Length, Withheld> {
     let camera: &CameraModel = &cal.camera;
     let geometry = |why: &str| Withheld::Geometry { why: why.to_string() };
-    let fix = cal.laser.fix_from_pixel(camera, dot_px).ok_or_else(|| geometry("the dot's ray never meets the laser in front of the camera"))?;
+    let fix = cal
+        .laser
+        .fix_from_pixel(camera, dot_px)
+        .ok_or_else(|| geometry("the dot's ray never meets the laser in front of the camera"))?;
     let z = fix.depth_m;
     // Off the line: against the laser image's uncertainty across the line plus the dot's own.
-    let offset_px = cal.laser.pixel_offset(camera, dot_px, 0.05, 50.0).ok_or_else(|| geometry("the laser's image is not defined here"))?;
+    let offset_px = cal
+        .laser
+        .pixel_offset(camera, dot_px, 0.05, 50.0)
+        .ok_or_else(|| geometry("the laser's image is not defined here"))?;
     let along = match (cal.laser.pixel_at_depth(camera, z * 0.99), cal.laser.pixel_at_depth(camera, z * 1.01)) {
         (Some(a), Some(b)) => (b - a).try_normalize(1e-12),
         _ => None,
@@ -134,7 +142,8 @@ pub fn measure(
     .unwrap_or(Vec2::x());
     let across = Vec2::new(-along.y, along.x);
     let cov = laser_pixel_covariance(cal, z).unwrap_or([[0.0; 2]; 2]);
-    let across_var = across.x * across.x * cov[0][0] + 2.0 * across.x * across.y * cov[0][1] + across.y * across.y * cov[1][1];
+    let across_var =
+        across.x * across.x * cov[0][0] + 2.0 * across.x * across.y * cov[0][1] + across.y * across.y * cov[1][1];
     let allowed_px = params.max_dot_offset_sigma * (across_var.max(0.0) + params.dot_sigma_px.powi(2)).sqrt();
     if offset_px > allowed_px {
         return Err(Withheld::DotOffLaserLine { offset_px, allowed_px });
@@ -144,7 +153,9 @@ pub fn measure(
             return Err(Withheld::OutsideCalibratedRange { distance_m: z, range_m: (near, far) });
         }
     }
-    let chord_m = camera.length_at_depth(head_px, tail_px, z).ok_or_else(|| geometry("an end point is outside the camera model's range"))?;
+    let chord_m = camera
+        .length_at_depth(head_px, tail_px, z)
+        .ok_or_else(|| geometry("an end point is outside the camera model's range"))?;
     let length_m = chord_m * length_over_chord;
     // The dot's localisation moves the distance along the laser's image.
     let depth_at = |p: Vec2| cal.laser.fix_from_pixel(camera, p).map(|f| f.depth_m);
@@ -169,7 +180,12 @@ pub fn measure(
 /// Whether the photo at `photo`, of `size`, can come from the calibrated camera: the same
 /// image size, and (where both record one) the same body serial in its EXIF, unless
 /// `allow_other_body`.
-pub fn camera_body_mismatch(cal: &Calibration, photo: &Path, size: (u32, u32), allow_other_body: bool) -> Option<Withheld> {
+pub fn camera_body_mismatch(
+    cal: &Calibration,
+    photo: &Path,
+    size: (u32, u32),
+    allow_other_body: bool,
+) -> Option<Withheld> {
     let want = (cal.camera.width_px, cal.camera.height_px);
     if size != want {
         return Some(Withheld::OtherCameraBody {
@@ -179,15 +195,21 @@ pub fn camera_body_mismatch(cal: &Calibration, photo: &Path, size: (u32, u32), a
     let expected = ExpectedCamera::from(cal);
     expected.serial.as_ref()?;
     let exif = PhotoExif::read_file(photo);
-    check_photo(&expected, photo, exif.as_ref(), allow_other_body)
-        .err()
-        .map(|refusal| Withheld::OtherCameraBody { why: format!("taken with body {}, the calibration is for body {}", refusal.photo_serial, refusal.expected_serial) })
+    check_photo(&expected, photo, exif.as_ref(), allow_other_body).err().map(|refusal| Withheld::OtherCameraBody {
+        why: format!(
+            "taken with body {}, the calibration is for body {}",
+            refusal.photo_serial, refusal.expected_serial
+        ),
+    })
 }
 
 /// Whether labelled end points lie within `margin_px` of the frame: the fish may run out of it.
 pub fn ends_at_edge(size: (u32, u32), ends: [Vec2; 2], margin_px: f64) -> bool {
     ends.iter().any(|p| {
-        p.x < margin_px - 0.5 || p.y < margin_px - 0.5 || p.x > size.0 as f64 - 0.5 - margin_px || p.y > size.1 as f64 - 0.5 - margin_px
+        p.x < margin_px - 0.5
+            || p.y < margin_px - 0.5
+            || p.x > size.0 as f64 - 0.5 - margin_px
+            || p.y > size.1 as f64 - 0.5 - margin_px
     })
 }
 

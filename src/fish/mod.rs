@@ -2,8 +2,8 @@
 
 pub mod ends;
 pub mod labels;
-pub mod measure;
 pub mod mask;
+pub mod measure;
 
 pub use ends::{fish_ends, principal_axis_ends, FishEnds, HeadCall, TailPoint};
 pub use mask::Mask;

@@ -256,11 +256,7 @@ fn reprojection_residuals(
     Some(r)
 }
 
-fn numeric_jacobian(
-    camera: &CameraModel,
-    obs: &[(&DotObservation, Vec2)],
-    p: &Vector4<f64>,
-) -> Option<DMatrix<f64>> {
+fn numeric_jacobian(camera: &CameraModel, obs: &[(&DotObservation, Vec2)], p: &Vector4<f64>) -> Option<DMatrix<f64>> {
     let mut j = DMatrix::zeros(2 * obs.len(), 4);
     for c in 0..4 {
         // Origin in metres, slopes unitless: steps well inside both scales.
@@ -287,15 +283,16 @@ fn refine_reprojection(
     let mut p = *start;
     let mut lambda = 1e-3;
     let cost = |r: &DVector<f64>| -> f64 {
-        r.iter()
-            .map(|&e| if e.abs() <= huber_k { 0.5 * e * e } else { huber_k * (e.abs() - 0.5 * huber_k) })
-            .sum()
+        r.iter().map(|&e| if e.abs() <= huber_k { 0.5 * e * e } else { huber_k * (e.abs() - 0.5 * huber_k) }).sum()
     };
     let mut r = reprojection_residuals(camera, obs, &p)?;
     let mut c = cost(&r);
     for _ in 0..200 {
         let j = numeric_jacobian(camera, obs, &p)?;
-        let w = DVector::from_iterator(r.len(), r.iter().map(|&e| if e.abs() <= huber_k { 1.0 } else { huber_k / e.abs() }));
+        let w = DVector::from_iterator(
+            r.len(),
+            r.iter().map(|&e| if e.abs() <= huber_k { 1.0 } else { huber_k / e.abs() }),
+        );
         let jw = DMatrix::from_fn(j.nrows(), 4, |i, k| j[(i, k)] * w[i]);
         let jtj = j.transpose() * &jw;
         let g = jw.transpose() * &r;
@@ -305,7 +302,10 @@ fn refine_reprojection(
             for d in 0..4 {
                 a[(d, d)] += lambda * (jtj[(d, d)] + 1e-12);
             }
-            let Some(step) = a.lu().solve(&(-&g)) else { lambda *= 10.0; continue };
+            let Some(step) = a.lu().solve(&(-&g)) else {
+                lambda *= 10.0;
+                continue;
+            };
             let cand = p + Vector4::new(step[0], step[1], step[2], step[3]);
             if let Some(rc) = reprojection_residuals(camera, obs, &cand) {
                 let cc = cost(&rc);
@@ -340,10 +340,8 @@ fn to4(m: &DMatrix<f64>) -> Matrix4<f64> {
 /// RANSAC over pairs of photos: each pair of candidate dots proposes a line; the line that
 /// the most photos agree with (some candidate within the gate) wins.
 fn ransac_line(camera: &CameraModel, obs: &[DotObservation], gate_px: f64) -> Option<(LaserLine, Vec<Option<usize>>)> {
-    let pts: Vec<Vec<Option<Vec3>>> = obs
-        .iter()
-        .map(|o| o.candidates.iter().take(4).map(|&c| dot_point(camera, &o.plane, c)).collect())
-        .collect();
+    let pts: Vec<Vec<Option<Vec3>>> =
+        obs.iter().map(|o| o.candidates.iter().take(4).map(|&c| dot_point(camera, &o.plane, c)).collect()).collect();
     let assign = |line: &LaserLine| -> (usize, f64, Vec<Option<usize>>) {
         let mut n = 0;
         let mut err = 0.0;
@@ -398,8 +396,11 @@ pub fn fit(
     method: Method,
     gates: &Gates,
 ) -> Result<LaserFit, FitError> {
-    let present: Vec<(usize, &DotObservation)> =
-        obs.iter().enumerate().filter_map(|(i, o)| o.as_ref().filter(|o| !o.candidates.is_empty()).map(|o| (i, o))).collect();
+    let present: Vec<(usize, &DotObservation)> = obs
+        .iter()
+        .enumerate()
+        .filter_map(|(i, o)| o.as_ref().filter(|o| !o.candidates.is_empty()).map(|o| (i, o)))
+        .collect();
     if present.len() < gates.min_photos {
         return Err(FitError::TooFewPhotos { usable: present.len(), needed: gates.min_photos });
     }
@@ -412,17 +413,15 @@ pub fn fit(
             let mut line = None;
             // Refit, re-gate, until the inlier set is stable.
             for _ in 0..10 {
-                let used: Vec<(&DotObservation, Vec2)> = present
-                    .iter()
-                    .zip(&chosen)
-                    .filter_map(|((_, o), c)| c.map(|k| (*o, o.candidates[k])))
-                    .collect();
+                let used: Vec<(&DotObservation, Vec2)> =
+                    present.iter().zip(&chosen).filter_map(|((_, o), c)| c.map(|k| (*o, o.candidates[k]))).collect();
                 if used.len() < gates.min_photos {
                     return Err(FitError::NoConsensus { needed: gates.min_photos });
                 }
                 let pts: Vec<Vec3> = used.iter().filter_map(|(o, px)| dot_point(camera, &o.plane, *px)).collect();
                 let start = fit_tls(&pts).ok_or(FitError::Degenerate)?;
-                let (p, _) = refine_reprojection(camera, &used, &line_to_params(&start), 1.5).ok_or(FitError::Degenerate)?;
+                let (p, _) =
+                    refine_reprojection(camera, &used, &line_to_params(&start), 1.5).ok_or(FitError::Degenerate)?;
                 let l = params_to_line(&p);
                 let next: Vec<Option<usize>> = present
                     .iter()
@@ -447,10 +446,8 @@ pub fn fit(
             (line.ok_or(FitError::Degenerate)?, chosen)
         }
         Method::GaussNewton | Method::Average => {
-            let pts: Vec<Vec3> = present
-                .iter()
-                .filter_map(|(_, o)| dot_point(camera, &o.plane, o.candidates[0]))
-                .collect();
+            let pts: Vec<Vec3> =
+                present.iter().filter_map(|(_, o)| dot_point(camera, &o.plane, o.candidates[0])).collect();
             let l = if method == Method::Average { fit_average(&pts) } else { fit_gauss_newton(&pts) };
             (l.ok_or(FitError::Degenerate)?, vec![Some(0); present.len()])
         }
@@ -496,7 +493,8 @@ pub fn fit(
             outlier,
         });
     }
-    let span_m = along.iter().copied().fold(f64::NEG_INFINITY, f64::max) - along.iter().copied().fold(f64::INFINITY, f64::min);
+    let span_m =
+        along.iter().copied().fold(f64::NEG_INFINITY, f64::max) - along.iter().copied().fold(f64::INFINITY, f64::min);
     if span_m < gates.min_span_m {
         return Err(FitError::TooShortSpan { span_m, min_m: gates.min_span_m });
     }
@@ -518,10 +516,8 @@ pub fn fit(
     let scale = (r.norm_squared() / dof).max(1.0);
     let cov = to4(&(j.transpose() * &j)).try_inverse().ok_or(FitError::Degenerate)? * scale;
     let covariance = [0, 1, 2, 3].map(|a| [0, 1, 2, 3].map(|b| cov[(a, b)]));
-    let distance_sigma_m = [1.0, 3.0, 5.0]
-        .iter()
-        .map(|&z| (z, distance_sigma(camera, &line, &cov, z).unwrap_or(f64::NAN)))
-        .collect();
+    let distance_sigma_m =
+        [1.0, 3.0, 5.0].iter().map(|&z| (z, distance_sigma(camera, &line, &cov, z).unwrap_or(f64::NAN))).collect();
 
     Ok(LaserFit {
         method,
@@ -637,11 +633,8 @@ mod tests {
 
     #[test]
     fn refuses_a_single_distance() {
-        let obs: Vec<_> = scenes(0.0, 3)
-            .into_iter()
-            .enumerate()
-            .map(|(i, o)| if (3..=5).contains(&i) { o } else { None })
-            .collect();
+        let obs: Vec<_> =
+            scenes(0.0, 3).into_iter().enumerate().map(|(i, o)| if (3..=5).contains(&i) { o } else { None }).collect();
         match fit(&camera(), &obs, Method::Reprojection, &Gates::default()) {
             Err(FitError::TooShortSpan { span_m, .. }) => assert!(span_m < 0.6),
             other => panic!("{other:?}"),

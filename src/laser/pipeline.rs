@@ -7,16 +7,18 @@
 //! found nothing usable get a second, more sensitive look near where the first fit says the
 //! dot must be, and the fit is repeated.
 
-use crate::dot::candidates::{find_dot_candidates, ChannelOrder, ColourView, DotCandidate, DotDetectorParams, SearchRegion};
+use crate::dot::candidates::{
+    find_dot_candidates, ChannelOrder, ColourView, DotCandidate, DotDetectorParams, SearchRegion,
+};
 use crate::laser::fit::{self, DotObservation, FitError, Gates, LaserFit, Method};
 use crate::vision::{self, EncodedPhoto, Photo, SlateModel, TargetPose};
 use calib_targets::Checkerboard;
 use fslcal_core::{CameraModel, LaserLine, Plane, Vec2, Vec3};
-use std::sync::Arc;
 use rayon::prelude::*;
 use serde::Serialize;
 use std::collections::HashMap;
 use std::path::{Path, PathBuf};
+use std::sync::Arc;
 
 /// Localisation of a dot clicked by hand, pixels (1 sigma per axis): people click the
 /// visual centre of a blob to about a pixel.
@@ -87,7 +89,13 @@ impl PixelCrop {
     }
 
     fn view(&self) -> ColourView<'_> {
-        ColourView { width: self.width, height: self.height, stride: self.width * 3, order: ChannelOrder::Bgr, data: &self.data }
+        ColourView {
+            width: self.width,
+            height: self.height,
+            stride: self.width * 3,
+            order: ChannelOrder::Bgr,
+            data: &self.data,
+        }
     }
 
     fn offset(&self) -> Vec2 {
@@ -182,7 +190,13 @@ impl Target {
     /// so its candidates must be [`SLATE_SNR_FACTOR`] times as strong; its dots are seen
     /// closer (0.45 m) than a board's, where murky water's forward scatter makes the halo
     /// larger than the detector's usual limit.
-    pub fn find_dots(&self, img: &ColourView, region: &SearchRegion, params: &DotDetectorParams, max: usize) -> Vec<DotCandidate> {
+    pub fn find_dots(
+        &self,
+        img: &ColourView,
+        region: &SearchRegion,
+        params: &DotDetectorParams,
+        max: usize,
+    ) -> Vec<DotCandidate> {
         match self {
             Target::Checkerboard(_) => find_dot_candidates(img, region, params, max),
             Target::Slate(_) => {
@@ -275,7 +289,11 @@ pub struct LocatedTarget {
 
 /// Finds `target` in the photo at `path` and solves its pose. `Ok(Err(reason))` when the
 /// photo cannot be used (the reason omits the file name); `Err` for a photo of the wrong size.
-pub fn locate_target(target: &Target, camera: &CameraModel, path: &Path) -> Result<Result<LocatedTarget, String>, LaserError> {
+pub fn locate_target(
+    target: &Target,
+    camera: &CameraModel,
+    path: &Path,
+) -> Result<Result<LocatedTarget, String>, LaserError> {
     let file = path.display().to_string();
     let encoded = match EncodedPhoto::read(path) {
         Ok(e) => e,
@@ -286,21 +304,44 @@ pub fn locate_target(target: &Target, camera: &CameraModel, path: &Path) -> Resu
         Err(e) => return Ok(Err(format!("unreadable: {}", strip_path(&e.to_string(), &file)))),
     };
     if (w, h) != (camera.width_px, camera.height_px) {
-        return Err(LaserError::ImageSize { file, photo_w: w, photo_h: h, camera_w: camera.width_px, camera_h: camera.height_px });
+        return Err(LaserError::ImageSize {
+            file,
+            photo_w: w,
+            photo_h: h,
+            camera_w: camera.width_px,
+            camera_h: camera.height_px,
+        });
     }
     Ok(match target {
         Target::Checkerboard(board) => locate_board(board, camera, &encoded, &file),
         Target::Slate(model) => match vision::find_slate(model, &encoded, camera) {
             Ok(d) => {
-                let outline = target_outline_px(camera, &model.slate.outline_m(), 0.02 * model.slate.width_m.max(model.slate.height_m), &d.pose);
-                Ok(LocatedTarget { pose: d.pose, outline_px: outline, photo: d.photo, found_at_factor: d.found_at_factor, inliers: Some(d.inliers), corners_px: Vec::new() })
+                let outline = target_outline_px(
+                    camera,
+                    &model.slate.outline_m(),
+                    0.02 * model.slate.width_m.max(model.slate.height_m),
+                    &d.pose,
+                );
+                Ok(LocatedTarget {
+                    pose: d.pose,
+                    outline_px: outline,
+                    photo: d.photo,
+                    found_at_factor: d.found_at_factor,
+                    inliers: Some(d.inliers),
+                    corners_px: Vec::new(),
+                })
             }
             Err(e) => Err(strip_path(&e.to_string(), &file)),
         },
     })
 }
 
-fn locate_board(board: &Checkerboard, camera: &CameraModel, encoded: &EncodedPhoto, file: &str) -> Result<LocatedTarget, String> {
+fn locate_board(
+    board: &Checkerboard,
+    camera: &CameraModel,
+    encoded: &EncodedPhoto,
+    file: &str,
+) -> Result<LocatedTarget, String> {
     let (cols, rows) = (board.inner_cols, board.inner_rows);
     let search = match vision::find_checkerboard(encoded, cols, rows) {
         Ok(Some(s)) => s,
@@ -325,7 +366,14 @@ fn locate_board(board: &Checkerboard, camera: &CameraModel, encoded: &EncodedPho
         ));
     }
     let outline = board_outline_px(camera, board, &pose);
-    Ok(LocatedTarget { pose, outline_px: outline, photo, found_at_factor: search.found_at_factor, inliers: None, corners_px: corners })
+    Ok(LocatedTarget {
+        pose,
+        outline_px: outline,
+        photo,
+        found_at_factor: search.found_at_factor,
+        inliers: None,
+        corners_px: corners,
+    })
 }
 
 /// Settings of one run.
@@ -432,7 +480,10 @@ fn hand_candidate(px: Vec2) -> DotCandidate {
 
 /// Error texts from the vision module start with the path; the report already names it.
 fn strip_path(message: &str, file: &str) -> String {
-    message.strip_prefix(file).map(|m| m.trim_start_matches(':').trim().to_string()).unwrap_or_else(|| message.to_string())
+    message
+        .strip_prefix(file)
+        .map(|m| m.trim_start_matches(':').trim().to_string())
+        .unwrap_or_else(|| message.to_string())
 }
 
 fn observation(e: &PhotoEvidence) -> Option<DotObservation> {
@@ -449,7 +500,12 @@ fn observation(e: &PhotoEvidence) -> Option<DotObservation> {
 /// Second look for a photo whose dot was not found or disagreed with the first fit: a more
 /// sensitive search in a small disc around where the line meets this photo's board. Far,
 /// faint dots in murky water often fall below the first search's threshold.
-fn search_near_prediction(job: &LaserJob, path: &Path, evidence: &PhotoEvidence, line: &LaserLine) -> Option<DotCandidate> {
+fn search_near_prediction(
+    job: &LaserJob,
+    path: &Path,
+    evidence: &PhotoEvidence,
+    line: &LaserLine,
+) -> Option<DotCandidate> {
     let predicted = job.camera.project(&line.hit(&evidence.pose.plane())?)?;
     let radius = (4.0 * job.gates.max_dot_offset_px).max(12.0);
     let polygon: Vec<Vec2> = (0..8)
@@ -487,7 +543,11 @@ fn search_near_prediction(job: &LaserJob, path: &Path, evidence: &PhotoEvidence,
 }
 
 /// Runs the whole chain. `progress` is called once per photo examined.
-pub fn calibrate(job: &LaserJob, photos: &[PathBuf], progress: &(dyn Fn() + Sync)) -> Result<LaserCalibration, LaserError> {
+pub fn calibrate(
+    job: &LaserJob,
+    photos: &[PathBuf],
+    progress: &(dyn Fn() + Sync),
+) -> Result<LaserCalibration, LaserError> {
     vision::use_single_threaded_opencv();
     let mut results: Vec<PhotoResult> = photos
         .par_iter()
@@ -510,8 +570,10 @@ pub fn calibrate(job: &LaserJob, photos: &[PathBuf], progress: &(dyn Fn() + Sync
                 .iter()
                 .enumerate()
                 .filter(|(i, r)| match r {
-                    Ok(e) => e.dot_source != DotSource::Hand
-                        && first.photos[*i].as_ref().map_or(true, |p| p.outlier.is_some()),
+                    Ok(e) => {
+                        e.dot_source != DotSource::Hand
+                            && first.photos[*i].as_ref().map_or(true, |p| p.outlier.is_some())
+                    }
                     Err(_) => false,
                 })
                 .map(|(i, _)| i)
@@ -559,7 +621,8 @@ pub fn calibrate(job: &LaserJob, photos: &[PathBuf], progress: &(dyn Fn() + Sync
 fn gate(job: &LaserJob, fit: &LaserFit, outliers: (usize, usize)) -> Vec<GateResult> {
     let g = &job.gates;
     let baseline = fit.laser.baseline_m();
-    let worst_used = fit.photos.iter().flatten().filter(|p| p.outlier.is_none()).map(|p| p.residual_px).fold(0.0, f64::max);
+    let worst_used =
+        fit.photos.iter().flatten().filter(|p| p.outlier.is_none()).map(|p| p.residual_px).fold(0.0, f64::max);
     vec![
         GateResult {
             name: "photos used",

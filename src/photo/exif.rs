@@ -200,7 +200,8 @@ fn read_tiff(data: &[u8]) -> Option<PhotoExif> {
         model: find(&ifd0, TAG_MODEL).and_then(|e| t.ascii(e)),
         ..PhotoExif::default()
     };
-    let Some(sub) = find(&ifd0, TAG_EXIF_IFD).and_then(|e| t.u32_at(e.value_at)).and_then(|at| t.ifd(at as usize, 0)) else {
+    let Some(sub) = find(&ifd0, TAG_EXIF_IFD).and_then(|e| t.u32_at(e.value_at)).and_then(|at| t.ifd(at as usize, 0))
+    else {
         return Some(exif);
     };
     let num = |tag| find(&sub, tag).and_then(|e| t.number(e));
@@ -227,7 +228,9 @@ pub fn strips_end(data: &[u8]) -> Option<u64> {
             _ => None,
         }
     };
-    (0..offsets.count.min(counts.count) as usize).map(|i| Some(nth(offsets, i)? + nth(counts, i)?)).try_fold(0u64, |m, e| e.map(|e| m.max(e)))
+    (0..offsets.count.min(counts.count) as usize)
+        .map(|i| Some(nth(offsets, i)? + nth(counts, i)?))
+        .try_fold(0u64, |m, e| e.map(|e| m.max(e)))
 }
 
 /// The body serial from an Olympus maker note's Equipment IFD.

@@ -36,20 +36,30 @@ const SAME_FOCAL_MM: f64 = 0.05;
 /// Checks one photo's EXIF (`None`: the photo has none) against the calibration's camera.
 /// `Ok` holds warnings to show; `Err` is a refusal, which `allow_other_body` turns into a
 /// warning.
-pub fn check_photo(expected: &ExpectedCamera, file: &Path, exif: Option<&PhotoExif>, allow_other_body: bool) -> Result<Vec<String>, OtherBody> {
+pub fn check_photo(
+    expected: &ExpectedCamera,
+    file: &Path,
+    exif: Option<&PhotoExif>,
+    allow_other_body: bool,
+) -> Result<Vec<String>, OtherBody> {
     let name = file.display().to_string();
     let mut warnings = Vec::new();
     if let Some(want) = &expected.serial {
         match exif.and_then(|e| e.serial.as_ref()) {
             Some(got) if got != want => {
-                let refusal = OtherBody { file: name.clone(), photo_serial: got.clone(), expected_serial: want.clone() };
+                let refusal =
+                    OtherBody { file: name.clone(), photo_serial: got.clone(), expected_serial: want.clone() };
                 if !allow_other_body {
                     return Err(refusal);
                 }
-                warnings.push(format!("{name}: camera body {got}, not the calibration's {want} (allowed by --allow-other-body)"));
+                warnings.push(format!(
+                    "{name}: camera body {got}, not the calibration's {want} (allowed by --allow-other-body)"
+                ));
             }
             Some(_) => {}
-            None => warnings.push(format!("{name}: the photo records no camera serial; cannot check it is body {want}")),
+            None => {
+                warnings.push(format!("{name}: the photo records no camera serial; cannot check it is body {want}"))
+            }
         }
     }
     if let (Some(want), Some(got)) = (expected.focal_length_mm, exif.and_then(|e| e.focal_length_mm)) {
@@ -63,7 +73,11 @@ pub fn check_photo(expected: &ExpectedCamera, file: &Path, exif: Option<&PhotoEx
 }
 
 /// [`check_photo`] over photo files, reading each one's EXIF. Stops at the first refusal.
-pub fn check_photos(expected: &ExpectedCamera, photos: &[impl AsRef<Path>], allow_other_body: bool) -> Result<Vec<String>, OtherBody> {
+pub fn check_photos(
+    expected: &ExpectedCamera,
+    photos: &[impl AsRef<Path>],
+    allow_other_body: bool,
+) -> Result<Vec<String>, OtherBody> {
     let mut warnings = Vec::new();
     if expected.serial.is_none() && expected.focal_length_mm.is_none() {
         return Ok(warnings);
@@ -107,7 +121,10 @@ mod tests {
         let p = Path::new("dive/P1.ORF");
         assert!(check_photo(&want, p, Some(&exif(Some("BHR1"), Some(4.5))), false).unwrap().is_empty());
         let err = check_photo(&want, p, Some(&exif(Some("BHR9"), Some(4.5))), false).unwrap_err().to_string();
-        assert!(err.starts_with("dive/P1.ORF: taken with camera body BHR9") && err.contains("--allow-other-body"), "{err}");
+        assert!(
+            err.starts_with("dive/P1.ORF: taken with camera body BHR9") && err.contains("--allow-other-body"),
+            "{err}"
+        );
         assert!(!err.contains('\n'));
         let w = check_photo(&want, p, Some(&exif(Some("BHR9"), Some(4.5))), true).unwrap();
         assert_eq!(w.len(), 1);
@@ -115,6 +132,8 @@ mod tests {
         assert!(w.len() == 1 && w[0].contains("zoom"), "{w:?}");
         // No EXIF at all (a PNG): a warning, not a refusal.
         assert_eq!(check_photo(&want, p, None, false).unwrap().len(), 1);
-        assert!(check_photo(&ExpectedCamera::default(), p, Some(&exif(Some("X"), Some(9.0))), false).unwrap().is_empty());
+        assert!(check_photo(&ExpectedCamera::default(), p, Some(&exif(Some("X"), Some(9.0))), false)
+            .unwrap()
+            .is_empty());
     }
 }

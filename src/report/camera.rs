@@ -18,7 +18,11 @@ pub struct CameraReport<'a> {
 }
 
 fn used(cal: &CameraCalibration) -> impl Iterator<Item = (usize, &CornerResiduals)> {
-    cal.photos.iter().enumerate().filter(|(_, p)| p.status == "used").filter_map(|(i, p)| Some((i, p.corners.as_ref()?)))
+    cal.photos
+        .iter()
+        .enumerate()
+        .filter(|(_, p)| p.status == "used")
+        .filter_map(|(i, p)| Some((i, p.corners.as_ref()?)))
 }
 
 /// The four outermost corners of a row-major grid `cols` wide, in order around it.
@@ -44,10 +48,12 @@ fn residual_chart(cal: &CameraCalibration) -> Chart {
     let segments = |inlier: bool| -> Vec<((f64, f64), (f64, f64))> {
         used(cal)
             .flat_map(|(_, c)| {
-                c.corners_px.iter().zip(&c.residuals_px).zip(&c.inlier).filter(move |(_, k)| **k == inlier).map(move |((p, r), _)| {
-                    let e = p + r * gain;
-                    ((p.x, p.y), (e.x, e.y))
-                })
+                c.corners_px.iter().zip(&c.residuals_px).zip(&c.inlier).filter(move |(_, k)| **k == inlier).map(
+                    move |((p, r), _)| {
+                        let e = p + r * gain;
+                        ((p.x, p.y), (e.x, e.y))
+                    },
+                )
             })
             .filter(|(_, e)| e.0.is_finite() && e.1.is_finite())
             .collect()
@@ -68,12 +74,22 @@ fn residual_chart(cal: &CameraCalibration) -> Chart {
 fn rms_chart(cal: &CameraCalibration) -> Chart {
     let mut c = Chart::new("RMS per photo (per point)", "photo number", "RMS (px)");
     let bars = |status: &str| -> Vec<(f64, f64)> {
-        cal.photos.iter().enumerate().filter(|(_, p)| p.status == status).filter_map(|(i, p)| Some((i as f64, p.rms_px?))).collect()
+        cal.photos
+            .iter()
+            .enumerate()
+            .filter(|(_, p)| p.status == status)
+            .filter_map(|(i, p)| Some((i as f64, p.rms_px?)))
+            .collect()
     };
     c.layers.push(Layer::Bars { name: "used".into(), bars: bars("used"), width: 0.7, colour: colour::USED });
     let rejected = bars("rejected");
     if !rejected.is_empty() {
-        c.layers.push(Layer::Bars { name: "rejected photo".into(), bars: rejected, width: 0.7, colour: colour::OUTLIER });
+        c.layers.push(Layer::Bars {
+            name: "rejected photo".into(),
+            bars: rejected,
+            width: 0.7,
+            colour: colour::OUTLIER,
+        });
     }
     c.layers.push(Layer::HLine { name: format!("overall {:.3} px", cal.rms_px), y: cal.rms_px, colour: colour::GREY });
     c.x_range = Some((-0.8, cal.photos.len() as f64 - 0.2));
@@ -82,7 +98,11 @@ fn rms_chart(cal: &CameraCalibration) -> Chart {
 
 fn coverage_chart(cal: &CameraCalibration, board: &Checkerboard) -> Chart {
     let (w, h) = (cal.camera.width_px as f64, cal.camera.height_px as f64);
-    let mut c = Chart::new(&format!("Coverage: the boards span {:.0}% of the frame", 100.0 * cal.coverage.share), "u (px)", "v (px)");
+    let mut c = Chart::new(
+        &format!("Coverage: the boards span {:.0}% of the frame", 100.0 * cal.coverage.share),
+        "u (px)",
+        "v (px)",
+    );
     c.y_down = true;
     c.size_px = (520, 400);
     c.x_range = Some((-0.5, w - 0.5));
@@ -97,9 +117,16 @@ fn coverage_chart(cal: &CameraCalibration, board: &Checkerboard) -> Chart {
     }
     // The frame-corner zones the coverage check looks in.
     let (zw, zh) = (FRAME_CORNER_SHARE * w, FRAME_CORNER_SHARE * h);
-    for (k, (x, y, dx, dy)) in [(0.0, 0.0, zw, zh), (w, 0.0, -zw, zh), (0.0, h, zw, -zh), (w, h, -zw, -zh)].into_iter().enumerate() {
+    for (k, (x, y, dx, dy)) in
+        [(0.0, 0.0, zw, zh), (w, 0.0, -zw, zh), (0.0, h, zw, -zh), (w, h, -zw, -zh)].into_iter().enumerate()
+    {
         let name = if k == 0 { "frame-corner zones".to_string() } else { String::new() };
-        c.layers.push(Layer::Line { name, points: vec![(x + dx, y), (x + dx, y + dy), (x, y + dy)], colour: colour::LIMIT, dashed: true });
+        c.layers.push(Layer::Line {
+            name,
+            points: vec![(x + dx, y), (x + dx, y + dy), (x, y + dy)],
+            colour: colour::LIMIT,
+            dashed: true,
+        });
     }
     c
 }
@@ -123,7 +150,10 @@ pub fn write(dir: &Path, report: &CameraReport) -> Result<PathBuf, ReportError> 
         cam.height_px
     ));
     if cal.coverage.uncovered_frame_corners.is_empty() {
-        page.verdict(Verdict::Accepted, &format!("Solved; the boards cover every corner of the frame ({:.0}% of it).", 100.0 * cal.coverage.share));
+        page.verdict(
+            Verdict::Accepted,
+            &format!("Solved; the boards cover every corner of the frame ({:.0}% of it).", 100.0 * cal.coverage.share),
+        );
     } else {
         page.verdict(
             Verdict::Warning,
@@ -138,7 +168,14 @@ pub fn write(dir: &Path, report: &CameraReport) -> Result<PathBuf, ReportError> 
     let rows: Vec<Vec<Cell>> = vec![
         vec!["RMS per point".into(), format!("{:.3} px over {} corners", cal.rms_px, cal.points).into()],
         vec!["worst corner".into(), format!("{:.2} px in {worst}", cal.worst_px).into()],
-        vec!["outlier corners".into(), format!("{} of {} (beyond {} robust sigmas of their photo)", cal.corner_outliers.0, cal.corner_outliers.1, cal.k_corner).into()],
+        vec![
+            "outlier corners".into(),
+            format!(
+                "{} of {} (beyond {} robust sigmas of their photo)",
+                cal.corner_outliers.0, cal.corner_outliers.1, cal.k_corner
+            )
+            .into(),
+        ],
         vec!["outlier photos".into(), format!("{} of {}", cal.photo_outliers.0, cal.photo_outliers.1).into()],
         vec!["fx, fy".into(), format!("{:.2} ± {:.2} px, {:.2} ± {:.2} px", cam.fx_px, s[0], cam.fy_px, s[1]).into()],
         vec!["cx, cy".into(), format!("{:.2} ± {:.2} px, {:.2} ± {:.2} px", cam.cx_px, s[2], cam.cy_px, s[3]).into()],
@@ -172,7 +209,8 @@ pub fn write(dir: &Path, report: &CameraReport) -> Result<PathBuf, ReportError> 
             if let Some(c) = &p.corners {
                 o.outlines_px.push(grid_outline(&c.corners_px, report.board.inner_cols as usize));
                 o.marks_px = c.corners_px.clone();
-                o.bad_marks_px = c.corners_px.iter().zip(&c.inlier).filter(|(_, k)| !**k).map(|(p, _)| *p).collect::<Vec<Vec2>>();
+                o.bad_marks_px =
+                    c.corners_px.iter().zip(&c.inlier).filter(|(_, k)| !**k).map(|(p, _)| *p).collect::<Vec<Vec2>>();
             }
             (p.file.as_str(), o)
         })
@@ -182,7 +220,10 @@ pub fn write(dir: &Path, report: &CameraReport) -> Result<PathBuf, ReportError> 
         let status = match p.status {
             "used" => Cell::Good("used".into()),
             "rejected" => Cell::Bad("rejected: an outlier photo (its corners disagree with the rest)".into()),
-            _ => Cell::Bad(format!("skipped: no {}x{} checkerboard found", report.board.inner_cols, report.board.inner_rows)),
+            _ => Cell::Bad(format!(
+                "skipped: no {}x{} checkerboard found",
+                report.board.inner_cols, report.board.inner_rows
+            )),
         };
         let corners = match (p.corners_used, p.corners_found) {
             (Some(u), Some(f)) => format!("{u}/{f}"),
@@ -197,7 +238,11 @@ pub fn write(dir: &Path, report: &CameraReport) -> Result<PathBuf, ReportError> 
             p.worst_px.map_or("-".into(), |r| format!("{r:.2}")).into(),
         ]);
     }
-    page.table(&["photo", "file", "status", "corners used", "RMS (px)", "worst (px)"], &[false, false, false, true, true, true], rows);
+    page.table(
+        &["photo", "file", "status", "corners used", "RMS (px)", "worst (px)"],
+        &[false, false, false, true, true, true],
+        rows,
+    );
     page.heading("How to read this");
     page.note("See docs/how-to-calibrate.md in the fslcal repository.");
     files.write(dir, &page)

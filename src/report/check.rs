@@ -42,19 +42,40 @@ pub struct CheckReport {
 }
 
 fn offset_chart(r: &CheckReport) -> Chart {
-    let mut c = Chart::new("Dot offset from the calibrated line, per photo", "photo (in the order given)", "offset (px)");
+    let mut c =
+        Chart::new("Dot offset from the calibrated line, per photo", "photo (in the order given)", "offset (px)");
     let pick = |flag: bool| -> Vec<(f64, f64)> {
-        r.photos.iter().enumerate().filter(|(_, p)| p.flag == flag).filter_map(|(i, p)| Some((i as f64, p.offset_px?))).collect()
+        r.photos
+            .iter()
+            .enumerate()
+            .filter(|(_, p)| p.flag == flag)
+            .filter_map(|(i, p)| Some((i as f64, p.offset_px?)))
+            .collect()
     };
     let thresholds: Vec<(f64, f64)> =
         r.photos.iter().enumerate().filter_map(|(i, p)| Some((i as f64, p.threshold_px?))).collect();
     let top = thresholds.iter().map(|p| p.1).fold(1.0f64, f64::max);
-    c.layers.push(Layer::Points { name: format!("flag threshold ({} sigma)", r.flag_sigmas), points: thresholds, colour: colour::LIMIT, marker: Marker::Cross });
-    c.layers.push(Layer::Points { name: "within".into(), points: pick(false), colour: colour::USED, marker: Marker::Circle });
+    c.layers.push(Layer::Points {
+        name: format!("flag threshold ({} sigma)", r.flag_sigmas),
+        points: thresholds,
+        colour: colour::LIMIT,
+        marker: Marker::Cross,
+    });
+    c.layers.push(Layer::Points {
+        name: "within".into(),
+        points: pick(false),
+        colour: colour::USED,
+        marker: Marker::Circle,
+    });
     let flagged = pick(true);
     let top = flagged.iter().map(|p| p.1).fold(top, f64::max);
     if !flagged.is_empty() {
-        c.layers.push(Layer::Points { name: "flagged".into(), points: flagged, colour: colour::OUTLIER, marker: Marker::Cross });
+        c.layers.push(Layer::Points {
+            name: "flagged".into(),
+            points: flagged,
+            colour: colour::OUTLIER,
+            marker: Marker::Cross,
+        });
     }
     c.x_range = Some((-0.5, r.photos.len().max(1) as f64 - 0.5));
     c.y_range = Some((0.0, top * 1.2));
@@ -100,7 +121,8 @@ pub fn write(dir: &Path, r: &CheckReport) -> Result<PathBuf, ReportError> {
         r.photos.len() - checked,
         r.calibration
     ));
-    let implied = r.implied_direction_change_deg.map_or(String::new(), |d| format!("; implied change of direction {d:.3} deg"));
+    let implied =
+        r.implied_direction_change_deg.map_or(String::new(), |d| format!("; implied change of direction {d:.3} deg"));
     if r.drifted {
         page.verdict(Verdict::Rejected, &format!("DRIFTED: {flagged} of {checked} dots off the calibrated line{implied}. Recalibrate the laser before measuring these photos."));
     } else {
@@ -138,7 +160,11 @@ pub fn write(dir: &Path, r: &CheckReport) -> Result<PathBuf, ReportError> {
             p.threshold_px.map_or("-".into(), |o| format!("{o:.2}")).into(),
         ]);
     }
-    page.table(&["photo", "file", "result", "dot (px)", "offset (px)", "flag above (px)"], &[false, false, false, true, true, true], rows);
+    page.table(
+        &["photo", "file", "result", "dot (px)", "offset (px)", "flag above (px)"],
+        &[false, false, false, true, true, true],
+        rows,
+    );
     files.write(dir, &page)
 }
 
@@ -170,15 +196,32 @@ mod tests {
             laser,
             flag_sigmas: 5.0,
             photos: vec![
-                CheckPhoto { file: photo.display().to_string(), dot_px: Some(on_line), offset_px: Some(0.4), threshold_px: Some(3.0), flag: false, reason: None },
-                CheckPhoto { file: photo.display().to_string(), dot_px: Some(on_line + Vec2::new(12.0, 0.0)), offset_px: Some(11.0), threshold_px: Some(2.5), flag: true, reason: None },
+                CheckPhoto {
+                    file: photo.display().to_string(),
+                    dot_px: Some(on_line),
+                    offset_px: Some(0.4),
+                    threshold_px: Some(3.0),
+                    flag: false,
+                    reason: None,
+                },
+                CheckPhoto {
+                    file: photo.display().to_string(),
+                    dot_px: Some(on_line + Vec2::new(12.0, 0.0)),
+                    offset_px: Some(11.0),
+                    threshold_px: Some(2.5),
+                    flag: true,
+                    reason: None,
+                },
             ],
             drifted: true,
             implied_direction_change_deg: Some(0.21),
         };
         let out = dir.path().join("report");
         let html = std::fs::read_to_string(write(&out, &r).unwrap()).unwrap();
-        assert!(html.contains("DRIFTED: 1 of 2 dots off the calibrated line; implied change of direction 0.210 deg"), "{html}");
+        assert!(
+            html.contains("DRIFTED: 1 of 2 dots off the calibrated line; implied change of direction 0.210 deg"),
+            "{html}"
+        );
         assert!(html.contains("<td class=\"bad\">flagged</td>"));
         let svg = std::fs::read_to_string(out.join("plots/check-offsets.svg")).unwrap();
         assert!(svg.contains("flag threshold (5 sigma)"));

@@ -8,8 +8,8 @@
 use super::plot::{colour, Chart, Layer, Marker};
 use super::thumbnail::{self, Overlay};
 use super::{add_plot, file_name, thumbnail_cells, Cell, Page, ReportError, ReportFiles, Verdict};
-use crate::laser::pipeline::{LaserCalibration, LaserJob, PhotoReport};
 use crate::laser::fit::distance_sigma;
+use crate::laser::pipeline::{LaserCalibration, LaserJob, PhotoReport};
 use fslcal_core::{CameraModel, LaserLine, Vec2, Vec3};
 use nalgebra::Matrix4;
 use std::path::{Path, PathBuf};
@@ -90,10 +90,20 @@ fn view_chart(cal: &LaserCalibration, points: &[PhotoPoint], axis: usize) -> Cha
     let pick = |outlier: bool| -> Vec<(f64, f64)> {
         points.iter().filter(|p| p.outlier == outlier).map(|p| (p.point_m.z, 1e3 * p.point_m[axis])).collect()
     };
-    c.layers.push(Layer::Points { name: "dot (used)".into(), points: pick(false), colour: colour::USED, marker: Marker::Circle });
+    c.layers.push(Layer::Points {
+        name: "dot (used)".into(),
+        points: pick(false),
+        colour: colour::USED,
+        marker: Marker::Circle,
+    });
     let outliers = pick(true);
     if !outliers.is_empty() {
-        c.layers.push(Layer::Points { name: "dot (outlier)".into(), points: outliers, colour: colour::OUTLIER, marker: Marker::Cross });
+        c.layers.push(Layer::Points {
+            name: "dot (outlier)".into(),
+            points: outliers,
+            colour: colour::OUTLIER,
+            marker: Marker::Cross,
+        });
     }
     c.x_range = Some((0.0, hi.max(lo) * 1.02));
     c
@@ -105,12 +115,26 @@ fn residual_chart(cal: &LaserCalibration, points: &[PhotoPoint], gate_px: f64) -
         points.iter().filter(|p| p.outlier == outlier).map(|p| (p.distance_m, p.residual_px)).collect()
     };
     c.layers.push(Layer::HLine { name: format!("gate {gate_px:.1} px"), y: gate_px, colour: colour::LIMIT });
-    c.layers.push(Layer::HLine { name: format!("RMS {:.2} px", cal.fit.residual_rms_px), y: cal.fit.residual_rms_px, colour: colour::GREY });
-    c.layers.push(Layer::Points { name: "used".into(), points: pick(false), colour: colour::USED, marker: Marker::Circle });
+    c.layers.push(Layer::HLine {
+        name: format!("RMS {:.2} px", cal.fit.residual_rms_px),
+        y: cal.fit.residual_rms_px,
+        colour: colour::GREY,
+    });
+    c.layers.push(Layer::Points {
+        name: "used".into(),
+        points: pick(false),
+        colour: colour::USED,
+        marker: Marker::Circle,
+    });
     let outliers = pick(true);
     let top = outliers.iter().map(|p| p.1).fold(gate_px, f64::max);
     if !outliers.is_empty() {
-        c.layers.push(Layer::Points { name: "outlier".into(), points: outliers, colour: colour::OUTLIER, marker: Marker::Cross });
+        c.layers.push(Layer::Points {
+            name: "outlier".into(),
+            points: outliers,
+            colour: colour::OUTLIER,
+            marker: Marker::Cross,
+        });
     }
     let (lo, hi) = depth_axis(cal);
     c.x_range = Some((lo * 0.9, hi * 1.02));
@@ -146,7 +170,12 @@ fn error_chart(cal: &LaserCalibration, camera: &CameraModel, points: &[PhotoPoin
         upper,
         colour: colour::BAND,
     });
-    c.layers.push(Layer::Line { name: String::new(), points: vec![(lo, 0.0), (hi, 0.0)], colour: colour::GREY, dashed: true });
+    c.layers.push(Layer::Line {
+        name: String::new(),
+        points: vec![(lo, 0.0), (hi, 0.0)],
+        colour: colour::GREY,
+        dashed: true,
+    });
     let pick = |outlier: bool| -> Vec<(f64, f64)> {
         points
             .iter()
@@ -154,10 +183,20 @@ fn error_chart(cal: &LaserCalibration, camera: &CameraModel, points: &[PhotoPoin
             .filter_map(|p| p.laser_depth_error_m.map(|e| (p.distance_m, e * scale(p.distance_m))))
             .collect()
     };
-    c.layers.push(Layer::Points { name: "photo (used)".into(), points: pick(false), colour: colour::USED, marker: Marker::Circle });
+    c.layers.push(Layer::Points {
+        name: "photo (used)".into(),
+        points: pick(false),
+        colour: colour::USED,
+        marker: Marker::Circle,
+    });
     let outliers = pick(true);
     if !outliers.is_empty() {
-        c.layers.push(Layer::Points { name: "photo (outlier)".into(), points: outliers, colour: colour::OUTLIER, marker: Marker::Cross });
+        c.layers.push(Layer::Points {
+            name: "photo (outlier)".into(),
+            points: outliers,
+            colour: colour::OUTLIER,
+            marker: Marker::Cross,
+        });
     }
     c.x_range = Some((lo * 0.9, hi * 1.02));
     c
@@ -206,9 +245,16 @@ pub fn write(dir: &Path, report: &LaserReport) -> Result<PathBuf, ReportError> {
         }
         (_, Some(cal)) if cal.accepted() => page.verdict(Verdict::Accepted, "ACCEPTED: every gate passes."),
         (_, Some(cal)) => {
-            let failed: Vec<String> =
-                cal.gates.iter().filter(|g| !g.pass).map(|g| format!("{} {} (limit {})", g.name, g.figure, g.limit)).collect();
-            page.verdict(Verdict::Rejected, &format!("REJECTED: {}. No calibration file was written.", failed.join("; ")));
+            let failed: Vec<String> = cal
+                .gates
+                .iter()
+                .filter(|g| !g.pass)
+                .map(|g| format!("{} {} (limit {})", g.name, g.figure, g.limit))
+                .collect();
+            page.verdict(
+                Verdict::Rejected,
+                &format!("REJECTED: {}. No calibration file was written.", failed.join("; ")),
+            );
         }
         _ => {}
     }
@@ -270,7 +316,13 @@ pub fn write(dir: &Path, report: &LaserReport) -> Result<PathBuf, ReportError> {
     files.write(dir, &page)
 }
 
-fn key_figures(page: &mut Page, cal: &LaserCalibration, camera: &CameraModel, points: &[PhotoPoint], photos: &[PhotoReport]) {
+fn key_figures(
+    page: &mut Page,
+    cal: &LaserCalibration,
+    camera: &CameraModel,
+    points: &[PhotoPoint],
+    photos: &[PhotoReport],
+) {
     let f = &cal.fit;
     let l = &f.laser;
     let worst = points
@@ -288,10 +340,19 @@ fn key_figures(page: &mut Page, cal: &LaserCalibration, camera: &CameraModel, po
         .map(|(z, s)| format!("{:.1} mm at {z:.0} m ({:.2}%)", s * 1e3, 100.0 * s / z))
         .collect();
     let rows: Vec<Vec<Cell>> = vec![
-        vec!["dot offset from the line, RMS".into(), format!("{:.2} px ({:.2} mm on the board)", f.residual_rms_px, f.residual_rms_mm).into()],
-        vec!["worst used dot".into(), format!("{:.2} px ({:.2} mm){worst}", f.residual_worst_px, f.residual_worst_mm).into()],
+        vec![
+            "dot offset from the line, RMS".into(),
+            format!("{:.2} px ({:.2} mm on the board)", f.residual_rms_px, f.residual_rms_mm).into(),
+        ],
+        vec![
+            "worst used dot".into(),
+            format!("{:.2} px ({:.2} mm){worst}", f.residual_worst_px, f.residual_worst_mm).into(),
+        ],
         vec!["outliers".into(), format!("{} of {}", cal.outliers.0, cal.outliers.1).into()],
-        vec!["dots' depths; span along the laser".into(), format!("{:.2}-{:.2} m; {:.2} m", f.depth_range_m.0, f.depth_range_m.1, f.span_m).into()],
+        vec![
+            "dots' depths; span along the laser".into(),
+            format!("{:.2}-{:.2} m; {:.2} m", f.depth_range_m.0, f.depth_range_m.1, f.span_m).into(),
+        ],
         vec!["laser origin (camera xy-plane)".into(), f.origin_text().into()],
         vec!["baseline".into(), mm(l.baseline_m()).into()],
         vec!["laser direction".into(), f.direction_text().into()],
@@ -300,13 +361,26 @@ fn key_figures(page: &mut Page, cal: &LaserCalibration, camera: &CameraModel, po
             "distance read from the dot minus the board's, used photos".into(),
             format!("mean {:+.1} mm, RMS {:.1} mm over {} photos", mean * 1e3, rms * 1e3, errors.len()).into(),
         ],
-        vec!["camera".into(), format!("{}x{} px, fx {:.1} px, fy {:.1} px", camera.width_px, camera.height_px, camera.fx_px, camera.fy_px).into()],
+        vec![
+            "camera".into(),
+            format!(
+                "{}x{} px, fx {:.1} px, fy {:.1} px",
+                camera.width_px, camera.height_px, camera.fx_px, camera.fy_px
+            )
+            .into(),
+        ],
     ];
     page.heading("Key figures");
     page.table(&["figure", "value"], &[false, false], rows);
 }
 
-fn photo_section(page: &mut Page, files: &mut ReportFiles, photos: &[PhotoReport], camera: &CameraModel, laser: Option<&LaserLine>) {
+fn photo_section(
+    page: &mut Page,
+    files: &mut ReportFiles,
+    photos: &[PhotoReport],
+    camera: &CameraModel,
+    laser: Option<&LaserLine>,
+) {
     page.heading("Photos");
     page.note(
         "Drawn on each photo: the target's outline from its pose (yellow, padded as the dot search is), a \

@@ -50,7 +50,13 @@ pub fn safe_file_name(name: &str) -> String {
 }
 
 /// Draws `chart` into `plots/NAME` beside the page and shows it as a figure.
-pub fn add_plot(page: &mut Page, files: &mut ReportFiles, name: &str, chart: &plot::Chart, caption: &str) -> Result<(), ReportError> {
+pub fn add_plot(
+    page: &mut Page,
+    files: &mut ReportFiles,
+    name: &str,
+    chart: &plot::Chart,
+    caption: &str,
+) -> Result<(), ReportError> {
     let src = format!("plots/{name}");
     files.add(src.clone(), chart.svg()?.into_bytes());
     page.figure(&src, &chart.title, caption, chart.size_px);
@@ -71,8 +77,10 @@ pub const THUMBNAIL_WIDTH_PX: u32 = 320;
 /// is none (an unreadable photo still gets its row).
 pub fn thumbnail_cells(files: &mut ReportFiles, photos: &[(&str, thumbnail::Overlay)]) -> Vec<Cell> {
     use rayon::prelude::*;
-    let drawn: Vec<Result<thumbnail::Thumbnail, thumbnail::ThumbnailError>> =
-        photos.par_iter().map(|(path, overlay)| thumbnail::draw(Path::new(path), THUMBNAIL_WIDTH_PX, overlay)).collect();
+    let drawn: Vec<Result<thumbnail::Thumbnail, thumbnail::ThumbnailError>> = photos
+        .par_iter()
+        .map(|(path, overlay)| thumbnail::draw(Path::new(path), THUMBNAIL_WIDTH_PX, overlay))
+        .collect();
     photos
         .iter()
         .zip(drawn)
@@ -80,7 +88,8 @@ pub fn thumbnail_cells(files: &mut ReportFiles, photos: &[(&str, thumbnail::Over
         .map(|(i, ((path, _), t))| match t {
             Ok(t) => {
                 let name = file_name(path);
-                let stem = Path::new(&name).file_stem().map_or_else(|| name.clone(), |s| s.to_string_lossy().into_owned());
+                let stem =
+                    Path::new(&name).file_stem().map_or_else(|| name.clone(), |s| s.to_string_lossy().into_owned());
                 let src = format!("thumbs/{i:02}-{}.jpg", safe_file_name(&stem));
                 files.add(src.clone(), t.jpeg);
                 Cell::Image { src, alt: name, width_px: t.width_px, height_px: t.height_px }
@@ -105,7 +114,12 @@ pub enum Cell {
     Bad(String),
     Good(String),
     /// A thumbnail (path relative to the report) with its alternative text.
-    Image { src: String, alt: String, width_px: u32, height_px: u32 },
+    Image {
+        src: String,
+        alt: String,
+        width_px: u32,
+        height_px: u32,
+    },
 }
 
 impl From<String> for Cell {

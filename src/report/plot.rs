@@ -26,16 +26,45 @@ pub enum Marker {
 
 /// What a chart shows; every layer with a name gets a legend entry.
 pub enum Layer {
-    Points { name: String, points: Vec<(f64, f64)>, colour: RGBColor, marker: Marker },
-    Line { name: String, points: Vec<(f64, f64)>, colour: RGBColor, dashed: bool },
+    Points {
+        name: String,
+        points: Vec<(f64, f64)>,
+        colour: RGBColor,
+        marker: Marker,
+    },
+    Line {
+        name: String,
+        points: Vec<(f64, f64)>,
+        colour: RGBColor,
+        dashed: bool,
+    },
     /// A shaded band between `lower` and `upper`, both sampled at the same x.
-    Band { name: String, x: Vec<f64>, lower: Vec<f64>, upper: Vec<f64>, colour: RGBColor },
+    Band {
+        name: String,
+        x: Vec<f64>,
+        lower: Vec<f64>,
+        upper: Vec<f64>,
+        colour: RGBColor,
+    },
     /// A horizontal line across the whole chart (a limit, a gate).
-    HLine { name: String, y: f64, colour: RGBColor },
+    HLine {
+        name: String,
+        y: f64,
+        colour: RGBColor,
+    },
     /// Segments from a point to a point (residual vectors), with a dot at the start.
-    Arrows { name: String, segments: Vec<((f64, f64), (f64, f64))>, colour: RGBColor },
+    Arrows {
+        name: String,
+        segments: Vec<((f64, f64), (f64, f64))>,
+        colour: RGBColor,
+    },
     /// Vertical bars of width `width` centred at x.
-    Bars { name: String, bars: Vec<(f64, f64)>, width: f64, colour: RGBColor },
+    Bars {
+        name: String,
+        bars: Vec<(f64, f64)>,
+        width: f64,
+        colour: RGBColor,
+    },
 }
 
 /// Where the legend sits; pick the corner the data leaves empty.
@@ -136,7 +165,9 @@ impl Chart {
         let count = |right: bool, top: bool| {
             pts.iter()
                 .map(frac)
-                .filter(|(fx, fy)| (if right { *fx > 0.6 } else { *fx < 0.4 }) && (if top { *fy > 0.6 } else { *fy < 0.4 }))
+                .filter(|(fx, fy)| {
+                    (if right { *fx > 0.6 } else { *fx < 0.4 }) && (if top { *fy > 0.6 } else { *fy < 0.4 })
+                })
                 .count()
         };
         [
@@ -188,10 +219,14 @@ impl Chart {
                         let mut poly: Vec<(f64, f64)> = x.iter().zip(upper).map(|(x, y)| (*x, s * y)).collect();
                         poly.extend(x.iter().zip(lower).rev().map(|(x, y)| (*x, s * y)));
                         let c = *colour;
-                        let a = chart.draw_series(std::iter::once(Polygon::new(poly, c.mix(0.25).filled()))).map_err(|e| err(&e))?;
+                        let a = chart
+                            .draw_series(std::iter::once(Polygon::new(poly, c.mix(0.25).filled())))
+                            .map_err(|e| err(&e))?;
                         if !name.is_empty() {
                             legend = true;
-                            a.label(name).legend(move |(x, y)| Rectangle::new([(x, y - 5), (x + 16, y + 5)], c.mix(0.25).filled()));
+                            a.label(name).legend(move |(x, y)| {
+                                Rectangle::new([(x, y - 5), (x + 16, y + 5)], c.mix(0.25).filled())
+                            });
                         }
                     }
                     Layer::Bars { name, bars, width, colour } => {
@@ -203,7 +238,8 @@ impl Chart {
                             .map_err(|e| err(&e))?;
                         if !name.is_empty() {
                             legend = true;
-                            a.label(name).legend(move |(x, y)| Rectangle::new([(x, y - 5), (x + 16, y + 5)], c.filled()));
+                            a.label(name)
+                                .legend(move |(x, y)| Rectangle::new([(x, y - 5), (x + 16, y + 5)], c.filled()));
                         }
                     }
                     _ => {}
@@ -223,39 +259,53 @@ impl Chart {
                     }
                     Layer::HLine { name, y, colour } => {
                         let style = colour.stroke_width(2);
-                        chart.draw_series(DashedLineSeries::new([(x0, s * y), (x1, s * y)], 6, 4, style)).map_err(|e| err(&e))?;
+                        chart
+                            .draw_series(DashedLineSeries::new([(x0, s * y), (x1, s * y)], 6, 4, style))
+                            .map_err(|e| err(&e))?;
                         (name, *colour)
                     }
                     Layer::Points { name, points, colour, marker } => {
                         let c = *colour;
                         match marker {
                             Marker::Circle => {
-                                chart.draw_series(points.iter().map(|p| Circle::new((p.0, s * p.1), 4, c.filled()))).map_err(|e| err(&e))?;
+                                chart
+                                    .draw_series(points.iter().map(|p| Circle::new((p.0, s * p.1), 4, c.filled())))
+                                    .map_err(|e| err(&e))?;
                             }
                             Marker::Cross => {
-                                chart.draw_series(points.iter().map(|p| Cross::new((p.0, s * p.1), 5, c.stroke_width(2)))).map_err(|e| err(&e))?;
+                                chart
+                                    .draw_series(
+                                        points.iter().map(|p| Cross::new((p.0, s * p.1), 5, c.stroke_width(2))),
+                                    )
+                                    .map_err(|e| err(&e))?;
                             }
                         }
                         if !name.is_empty() {
                             legend = true;
                             let m = *marker;
-                            chart.draw_series(std::iter::empty::<Circle<(f64, f64), i32>>()).map_err(|e| err(&e))?.label(name).legend(
-                                move |(x, y)| -> DynElement<'static, SVGBackend, (i32, i32)> {
+                            chart
+                                .draw_series(std::iter::empty::<Circle<(f64, f64), i32>>())
+                                .map_err(|e| err(&e))?
+                                .label(name)
+                                .legend(move |(x, y)| -> DynElement<'static, SVGBackend, (i32, i32)> {
                                     match m {
                                         Marker::Circle => Circle::new((x + 8, y), 4, c.filled()).into_dyn(),
                                         Marker::Cross => Cross::new((x + 8, y), 5, c.stroke_width(2)).into_dyn(),
                                     }
-                                },
-                            );
+                                });
                         }
                         continue;
                     }
                     Layer::Arrows { name, segments, colour } => {
                         let c = *colour;
                         chart
-                            .draw_series(segments.iter().map(|(a, b)| PathElement::new(vec![(a.0, s * a.1), (b.0, s * b.1)], c.stroke_width(1))))
+                            .draw_series(segments.iter().map(|(a, b)| {
+                                PathElement::new(vec![(a.0, s * a.1), (b.0, s * b.1)], c.stroke_width(1))
+                            }))
                             .map_err(|e| err(&e))?;
-                        chart.draw_series(segments.iter().map(|(a, _)| Circle::new((a.0, s * a.1), 1, c.filled()))).map_err(|e| err(&e))?;
+                        chart
+                            .draw_series(segments.iter().map(|(a, _)| Circle::new((a.0, s * a.1), 1, c.filled())))
+                            .map_err(|e| err(&e))?;
                         (name, c)
                     }
                     Layer::Band { .. } | Layer::Bars { .. } => continue,
@@ -314,12 +364,37 @@ mod tests {
     #[test]
     fn draws_every_layer_kind_as_svg_without_fonts() {
         let mut c = Chart::new("residual <per> photo", "distance (m)", "residual (px)");
-        c.layers.push(Layer::Band { name: "1-sigma".into(), x: vec![0.5, 5.0], lower: vec![-0.1, -1.0], upper: vec![0.1, 1.0], colour: colour::BAND });
-        c.layers.push(Layer::Points { name: "used".into(), points: vec![(1.0, 0.2), (2.0, 0.3)], colour: colour::USED, marker: Marker::Circle });
-        c.layers.push(Layer::Points { name: "outlier".into(), points: vec![(3.0, 5.0)], colour: colour::OUTLIER, marker: Marker::Cross });
-        c.layers.push(Layer::Line { name: "fit".into(), points: vec![(0.5, 0.0), (5.0, 0.0)], colour: colour::FIT, dashed: false });
+        c.layers.push(Layer::Band {
+            name: "1-sigma".into(),
+            x: vec![0.5, 5.0],
+            lower: vec![-0.1, -1.0],
+            upper: vec![0.1, 1.0],
+            colour: colour::BAND,
+        });
+        c.layers.push(Layer::Points {
+            name: "used".into(),
+            points: vec![(1.0, 0.2), (2.0, 0.3)],
+            colour: colour::USED,
+            marker: Marker::Circle,
+        });
+        c.layers.push(Layer::Points {
+            name: "outlier".into(),
+            points: vec![(3.0, 5.0)],
+            colour: colour::OUTLIER,
+            marker: Marker::Cross,
+        });
+        c.layers.push(Layer::Line {
+            name: "fit".into(),
+            points: vec![(0.5, 0.0), (5.0, 0.0)],
+            colour: colour::FIT,
+            dashed: false,
+        });
         c.layers.push(Layer::HLine { name: "gate".into(), y: 4.0, colour: colour::LIMIT });
-        c.layers.push(Layer::Arrows { name: "vectors".into(), segments: vec![((1.0, 1.0), (1.5, 1.2))], colour: colour::GREY });
+        c.layers.push(Layer::Arrows {
+            name: "vectors".into(),
+            segments: vec![((1.0, 1.0), (1.5, 1.2))],
+            colour: colour::GREY,
+        });
         c.layers.push(Layer::Bars { name: "rms".into(), bars: vec![(1.0, 0.5)], width: 0.6, colour: colour::USED });
         let svg = c.svg().unwrap();
         assert!(svg.starts_with("<svg") && svg.trim_end().ends_with("</svg>"));
@@ -329,7 +404,10 @@ mod tests {
         for label in ["used", "outlier", "fit", "gate", "1-sigma", "vectors", "rms"] {
             assert!(svg.contains(&format!(">{label}<")) || svg.contains(&format!(">\n{label}\n<")), "legend {label}");
         }
-        assert!(!svg.contains("http://") || svg.matches("http://").all(|_| svg.contains("xmlns=\"http://www.w3.org/2000/svg\"")));
+        assert!(
+            !svg.contains("http://")
+                || svg.matches("http://").all(|_| svg.contains("xmlns=\"http://www.w3.org/2000/svg\""))
+        );
     }
 
     #[test]
@@ -338,7 +416,12 @@ mod tests {
         c.y_down = true;
         c.x_range = Some((0.0, 4000.0));
         c.y_range = Some((0.0, 3000.0));
-        c.layers.push(Layer::Points { name: String::new(), points: vec![(100.0, 200.0)], colour: colour::USED, marker: Marker::Circle });
+        c.layers.push(Layer::Points {
+            name: String::new(),
+            points: vec![(100.0, 200.0)],
+            colour: colour::USED,
+            marker: Marker::Circle,
+        });
         let svg = c.svg().unwrap();
         // plotters writes each label on its own line.
         assert!(svg.contains(">\n3000\n<") || svg.contains(">\n2500\n<"), "labels are positive rows: {svg}");

@@ -170,12 +170,7 @@ fn clip(a: Vec2, b: Vec2, w: f64, h: f64, margin: f64) -> Option<(Vec2, Vec2)> {
     }
     let d = b - a;
     let (mut t0, mut t1) = (0.0f64, 1.0f64);
-    for (p, q) in [
-        (-d.x, a.x + margin),
-        (d.x, w + margin - a.x),
-        (-d.y, a.y + margin),
-        (d.y, h + margin - a.y),
-    ] {
+    for (p, q) in [(-d.x, a.x + margin), (d.x, w + margin - a.x), (-d.y, a.y + margin), (d.y, h + margin - a.y)] {
         if p.abs() < 1e-12 {
             if q < 0.0 {
                 return None;

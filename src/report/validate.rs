@@ -89,20 +89,38 @@ fn error_chart(r: &ValidationReport) -> Chart {
     let lo = xs.iter().copied().fold(f64::INFINITY, f64::min).min(0.5);
     let hi = xs.iter().copied().fold(f64::NEG_INFINITY, f64::max).max(lo + 1.0);
     let t = r.tolerance_pct;
-    c.layers.push(Layer::Band { name: format!("tolerance ±{t}%"), x: vec![lo, hi], lower: vec![-t, -t], upper: vec![t, t], colour: colour::BAND });
-    c.layers.push(Layer::Line { name: String::new(), points: vec![(lo, 0.0), (hi, 0.0)], colour: colour::GREY, dashed: true });
+    c.layers.push(Layer::Band {
+        name: format!("tolerance ±{t}%"),
+        x: vec![lo, hi],
+        lower: vec![-t, -t],
+        upper: vec![t, t],
+        colour: colour::BAND,
+    });
+    c.layers.push(Layer::Line {
+        name: String::new(),
+        points: vec![(lo, 0.0), (hi, 0.0)],
+        colour: colour::GREY,
+        dashed: true,
+    });
     let err = |p: &ValidationPhoto| Some((p.distance_m?, p.error_pct?));
-    c.layers.push(Layer::Points { name: "pass".into(), points: points(r, true, err), colour: colour::USED, marker: Marker::Circle });
+    c.layers.push(Layer::Points {
+        name: "pass".into(),
+        points: points(r, true, err),
+        colour: colour::USED,
+        marker: Marker::Circle,
+    });
     let fail = points(r, false, err);
     if !fail.is_empty() {
-        c.layers.push(Layer::Points { name: "fail".into(), points: fail, colour: colour::OUTLIER, marker: Marker::Cross });
+        c.layers.push(Layer::Points {
+            name: "fail".into(),
+            points: fail,
+            colour: colour::OUTLIER,
+            marker: Marker::Cross,
+        });
     }
     if let Some((slope, _)) = r.trend_pct_per_m {
         let n = xs.len().max(1) as f64;
-        let (mx, my) = (
-            xs.iter().sum::<f64>() / n,
-            measured(r).filter_map(|p| p.error_pct).sum::<f64>() / n,
-        );
+        let (mx, my) = (xs.iter().sum::<f64>() / n, measured(r).filter_map(|p| p.error_pct).sum::<f64>() / n);
         c.layers.push(Layer::Line {
             name: format!("trend {slope:+.2} %/m"),
             points: vec![(lo, my + slope * (lo - mx)), (hi, my + slope * (hi - mx))],
@@ -128,12 +146,27 @@ fn measured_vs_true_chart(r: &ValidationReport) -> Chart {
         upper: vec![lo * (1.0 + t), hi * (1.0 + t)],
         colour: colour::BAND,
     });
-    c.layers.push(Layer::Line { name: "measured = true".into(), points: vec![(lo, lo), (hi, hi)], colour: colour::GREY, dashed: true });
+    c.layers.push(Layer::Line {
+        name: "measured = true".into(),
+        points: vec![(lo, lo), (hi, hi)],
+        colour: colour::GREY,
+        dashed: true,
+    });
     let mt = |p: &ValidationPhoto| Some((p.true_mm?, p.measured_mm?));
-    c.layers.push(Layer::Points { name: "pass".into(), points: points(r, true, mt), colour: colour::USED, marker: Marker::Circle });
+    c.layers.push(Layer::Points {
+        name: "pass".into(),
+        points: points(r, true, mt),
+        colour: colour::USED,
+        marker: Marker::Circle,
+    });
     let fail = points(r, false, mt);
     if !fail.is_empty() {
-        c.layers.push(Layer::Points { name: "fail".into(), points: fail, colour: colour::OUTLIER, marker: Marker::Cross });
+        c.layers.push(Layer::Points {
+            name: "fail".into(),
+            points: fail,
+            colour: colour::OUTLIER,
+            marker: Marker::Cross,
+        });
     }
     c.x_range = Some((lo, hi));
     c
@@ -159,7 +192,14 @@ pub fn write(dir: &Path, r: &ValidationReport) -> Result<PathBuf, ReportError> {
         None => String::new(),
     };
     let verdict = if r.pass { Verdict::Accepted } else { Verdict::Rejected };
-    page.verdict(verdict, &format!("{}: {passed} of {n} photos within ±{}%{trend}.", if r.pass { "PASS" } else { "FAIL" }, r.tolerance_pct));
+    page.verdict(
+        verdict,
+        &format!(
+            "{}: {passed} of {n} photos within ±{}%{trend}.",
+            if r.pass { "PASS" } else { "FAIL" },
+            r.tolerance_pct
+        ),
+    );
     let errors: Vec<f64> = measured(r).filter_map(|p| p.error_pct).collect();
     if !errors.is_empty() {
         let k = errors.len() as f64;
@@ -185,7 +225,9 @@ pub fn write(dir: &Path, r: &ValidationReport) -> Result<PathBuf, ReportError> {
         add_plot(&mut page, &mut files, name, &chart, caption)?;
     }
     page.heading("Photos");
-    page.note("Drawn on each photo: the detected target (yellow), the measured length (green) and the laser dot (red ring).");
+    page.note(
+        "Drawn on each photo: the detected target (yellow), the measured length (green) and the laser dot (red ring).",
+    );
     let overlays: Vec<(&str, Overlay)> = r
         .photos
         .iter()
@@ -250,7 +292,11 @@ mod tests {
             photos: vec![
                 photo("a.jpg", 0.9, 196.0, true),
                 photo("b.jpg", 2.1, 190.0, false),
-                ValidationPhoto { file: "c.jpg".into(), reason: Some("no laser dot found".into()), ..ValidationPhoto::default() },
+                ValidationPhoto {
+                    file: "c.jpg".into(),
+                    reason: Some("no laser dot found".into()),
+                    ..ValidationPhoto::default()
+                },
             ],
             pass: false,
             trend_pct_per_m: Some((-2.5, false)),

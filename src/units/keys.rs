@@ -22,7 +22,9 @@ pub enum KeyError {
     Malformed { path: String, what: &'static str, tag: &'static str },
     #[error("{path}: no .pub files in this folder; put the trusted signers' public keys there")]
     NoTrustedKeys { path: String },
-    #[error("{path}: already exists; a new key would orphan every file the old one signed (remove it first if you mean to)")]
+    #[error(
+        "{path}: already exists; a new key would orphan every file the old one signed (remove it first if you mean to)"
+    )]
     Exists { path: String },
     #[error("{path}: cannot write: {cause}")]
     Write { path: String, cause: std::io::Error },
@@ -116,8 +118,10 @@ pub fn read_trusted(path: &Path) -> Result<Vec<TrustedKey>, KeyError> {
         return Ok(vec![TrustedKey { key: read_public(path)?, file: path.to_path_buf() }]);
     }
     let entries = std::fs::read_dir(path).map_err(|cause| KeyError::Io { path: path.display().to_string(), cause })?;
-    let mut files: Vec<PathBuf> =
-        entries.filter_map(|e| e.ok().map(|e| e.path())).filter(|p| p.extension().is_some_and(|e| e == "pub")).collect();
+    let mut files: Vec<PathBuf> = entries
+        .filter_map(|e| e.ok().map(|e| e.path()))
+        .filter(|p| p.extension().is_some_and(|e| e == "pub"))
+        .collect();
     files.sort();
     if files.is_empty() {
         return Err(KeyError::NoTrustedKeys { path: path.display().to_string() });

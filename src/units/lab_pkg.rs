@@ -126,7 +126,8 @@ pub fn read_npy(name: &str, bytes: &[u8]) -> Result<NpyArray, PkgError> {
 /// Builds a `.pkg`: `metadata.json` then the arrays, every entry stamped with `made_utc_s`
 /// so the archive depends on its contents only.
 pub fn write_pkg(made_utc_s: i64, arrays: &[(&str, &[usize], &[f64])]) -> std::io::Result<Vec<u8>> {
-    let metadata = serde_json::to_vec_pretty(&serde_json::json!({ "calibrated_date": utc_time::format_python(made_utc_s) }))?;
+    let metadata =
+        serde_json::to_vec_pretty(&serde_json::json!({ "calibrated_date": utc_time::format_python(made_utc_s) }))?;
     let mut tar = tar::Builder::new(GzEncoder::new(Vec::new(), flate2::Compression::default()));
     let mut add = |name: &str, bytes: &[u8]| {
         let mut h = tar::Header::new_gnu();
@@ -201,8 +202,11 @@ pub struct LaserPkg {
 }
 
 fn vector3(a: NpyArray, name: &str) -> Result<[f64; 3], PkgError> {
-    <[f64; 3]>::try_from(a.data.as_slice())
-        .map_err(|_| PkgError::Shape { name: name.to_string(), shape: a.shape, expected: "3 values" })
+    <[f64; 3]>::try_from(a.data.as_slice()).map_err(|_| PkgError::Shape {
+        name: name.to_string(),
+        shape: a.shape,
+        expected: "3 values",
+    })
 }
 
 pub const LENS_MATRIX: &str = "_calibration_matrix.npy";
@@ -226,7 +230,10 @@ impl LensPkg {
     pub fn write(&self) -> std::io::Result<Vec<u8>> {
         write_pkg(
             self.calibrated_utc_s,
-            &[(LENS_MATRIX, &[3, 3], &self.camera_matrix), (LENS_DISTORTION, &[1, self.distortion.len()], &self.distortion)],
+            &[
+                (LENS_MATRIX, &[3, 3], &self.camera_matrix),
+                (LENS_DISTORTION, &[1, self.distortion.len()], &self.distortion),
+            ],
         )
     }
 }
@@ -300,7 +307,8 @@ mod tests {
         assert_eq!(LensPkg::read(&bytes).unwrap(), lens);
         // Deterministic: the same calibration gives the same archive.
         assert_eq!(lens.write().unwrap(), bytes);
-        let laser = LaserPkg { position_m: [-0.04, -0.105, 0.0], axis: [0.01, 0.02, 0.99975], calibrated_utc_s: 1_780_306_200 };
+        let laser =
+            LaserPkg { position_m: [-0.04, -0.105, 0.0], axis: [0.01, 0.02, 0.99975], calibrated_utc_s: 1_780_306_200 };
         assert_eq!(LaserPkg::read(&laser.write().unwrap()).unwrap(), laser);
         assert_eq!(LaserPkg::read(&bytes).unwrap_err(), PkgError::Missing(LASER_POSITION, "laser"));
         assert!(matches!(LensPkg::read(b"not gzip"), Err(PkgError::NotAnArchive(_))));

@@ -115,7 +115,8 @@ impl Registry {
         let text = std::fs::read(report).map_err(Self::io(report, "read"))?;
         let json: serde_json::Value =
             serde_json::from_slice(&text).map_err(|_| RegistryError::NotAReport { path: name.clone() })?;
-        let pass = json.get("pass").and_then(|p| p.as_bool()).ok_or(RegistryError::NotAReport { path: name.clone() })?;
+        let pass =
+            json.get("pass").and_then(|p| p.as_bool()).ok_or(RegistryError::NotAReport { path: name.clone() })?;
         let unit = match unit.or_else(|| json.get("unit").and_then(|u| u.as_str())) {
             Some(u) => unit_id(u)?,
             None => return Err(RegistryError::ReportWithoutUnit { path: name }),
@@ -178,7 +179,15 @@ fn read_validation(path: &Path) -> Option<ValidationRecord> {
     let stem = path.file_stem()?.to_str()?.strip_prefix("validation-")?;
     let compact = stem.get(..16).filter(|c| c.is_ascii())?;
     // 20260602T101500Z -> 2026-06-02T10:15:00Z
-    let iso = format!("{}-{}-{}T{}:{}:{}Z", &compact[..4], &compact[4..6], &compact[6..8], &compact[9..11], &compact[11..13], &compact[13..15]);
+    let iso = format!(
+        "{}-{}-{}T{}:{}:{}Z",
+        &compact[..4],
+        &compact[4..6],
+        &compact[6..8],
+        &compact[9..11],
+        &compact[11..13],
+        &compact[13..15]
+    );
     let filed_utc_s = utc_time::parse_iso(&iso)?;
     let json: serde_json::Value = serde_json::from_slice(&std::fs::read(path).ok()?).ok()?;
     Some(ValidationRecord { file: path.to_path_buf(), filed_utc_s, pass: json.get("pass")?.as_bool()? })

@@ -59,7 +59,8 @@ pub fn sign_to_file(contents: &UnitFile<'_>, key_path: &Path, out: &Path) -> Res
     let secret = keys::read_secret(key_path)?;
     let mut buf = [0u8; MAX_FILE_BYTES];
     let n = contents.sign(&secret, &mut buf).map_err(UnitFileError::at(out))?;
-    write_atomically(out, &buf[..n]).map_err(|cause| UnitFileError::Write { path: out.display().to_string(), cause })?;
+    write_atomically(out, &buf[..n])
+        .map_err(|cause| UnitFileError::Write { path: out.display().to_string(), cause })?;
     Ok(n)
 }
 

@@ -96,7 +96,8 @@ pub fn refine_corners(photo: &Photo, corners: &mut [Vec2], cols: u32, rows: u32)
         by_half.entry(half).or_default().push(i);
     }
     for (half, idx) in by_half {
-        let mut pts: Vector<Point2f> = idx.iter().map(|&i| Point2f::new(corners[i].x as f32, corners[i].y as f32)).collect();
+        let mut pts: Vector<Point2f> =
+            idx.iter().map(|&i| Point2f::new(corners[i].x as f32, corners[i].y as f32)).collect();
         imgproc::corner_sub_pix(photo.grey(), &mut pts, Size::new(half, half), Size::new(-1, -1), criteria)?;
         for (k, &i) in idx.iter().enumerate() {
             let p = pts.get(k)?;

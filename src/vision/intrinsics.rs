@@ -38,7 +38,11 @@ fn mat_to_vec3(m: &Mat) -> opencv::Result<Vec3> {
 
 /// Solves the intrinsics from at least 4 views (OpenCV needs 4+ points per view; a
 /// checkerboard view always has them).
-pub fn calibrate_intrinsics(views: &[ViewPoints], image_size: (u32, u32), options: SolveOptions) -> opencv::Result<IntrinsicsSolve> {
+pub fn calibrate_intrinsics(
+    views: &[ViewPoints],
+    image_size: (u32, u32),
+    options: SolveOptions,
+) -> opencv::Result<IntrinsicsSolve> {
     let object: Vector<Vector<Point3f>> = views
         .iter()
         .map(|v| v.object_m.iter().map(|p| Point3f::new(p.x as f32, p.y as f32, p.z as f32)).collect())
@@ -55,7 +59,8 @@ pub fn calibrate_intrinsics(views: &[ViewPoints], image_size: (u32, u32), option
     let flags = if options.fix_k3 { calib3d::CALIB_FIX_K3 } else { 0 };
     // OpenCV's default stops at 30 iterations, short of convergence on strongly distorted
     // lenses; the golden agrees to 1e-3 px only when LM runs to the end.
-    let criteria = TermCriteria::new((TermCriteria_Type::COUNT as i32) | (TermCriteria_Type::EPS as i32), 200, f64::EPSILON)?;
+    let criteria =
+        TermCriteria::new((TermCriteria_Type::COUNT as i32) | (TermCriteria_Type::EPS as i32), 200, f64::EPSILON)?;
     calib3d::calibrate_camera_extended(
         &object,
         &image,
@@ -91,7 +96,11 @@ pub fn calibrate_intrinsics(views: &[ViewPoints], image_size: (u32, u32), option
     for (o, v) in opencv_std_dev.iter_mut().zip(s) {
         *o = *v;
     }
-    let poses = rvecs.iter().zip(tvecs.iter()).map(|(r, t)| Ok((mat_to_vec3(&r)?, mat_to_vec3(&t)?))).collect::<opencv::Result<Vec<_>>>()?;
+    let poses = rvecs
+        .iter()
+        .zip(tvecs.iter())
+        .map(|(r, t)| Ok((mat_to_vec3(&r)?, mat_to_vec3(&t)?)))
+        .collect::<opencv::Result<Vec<_>>>()?;
     let free_intrinsics = if options.fix_k3 { 8 } else { 9 };
     Ok(IntrinsicsSolve { camera, poses, opencv_std_dev, free_parameters: free_intrinsics + 6 * views.len() })
 }

@@ -65,7 +65,8 @@ pub struct Photo {
 
 impl<'p> EncodedPhoto<'p> {
     pub fn read(path: &'p Path) -> Result<Self, VisionError> {
-        let bytes = std::fs::read(path).map_err(|source| VisionError::Io { path: path.display().to_string(), source })?;
+        let bytes =
+            std::fs::read(path).map_err(|source| VisionError::Io { path: path.display().to_string(), source })?;
         if bytes.is_empty() {
             return Err(VisionError::Undecodable { path: path.display().to_string() });
         }

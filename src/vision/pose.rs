@@ -2,9 +2,9 @@
 
 use fslcal_core::{CameraModel, Plane, Vec2, Vec3};
 use nalgebra::Matrix3;
+use opencv::calib3d;
 use opencv::core::{Mat, Point2d, Point3d, TermCriteria, TermCriteria_Type, Vector, CV_64F};
 use opencv::prelude::*;
-use opencv::calib3d;
 
 /// `T_cam_target`: target points `p_t` appear at `rotation * p_t + translation_m` in the
 /// camera frame.
@@ -29,11 +29,8 @@ impl TargetPose {
 }
 
 fn camera_matrices(camera: &CameraModel) -> opencv::Result<(Mat, Mat)> {
-    let k = Mat::from_slice_2d(&[
-        [camera.fx_px, 0.0, camera.cx_px],
-        [0.0, camera.fy_px, camera.cy_px],
-        [0.0, 0.0, 1.0],
-    ])?;
+    let k =
+        Mat::from_slice_2d(&[[camera.fx_px, 0.0, camera.cx_px], [0.0, camera.fy_px, camera.cy_px], [0.0, 0.0, 1.0]])?;
     let d = Mat::from_slice(&camera.distortion.to_opencv())?.try_clone()?;
     Ok((k, d))
 }

@@ -12,7 +12,10 @@
 use super::{solve_pose, EncodedPhoto, Photo, TargetPose, VisionError};
 use calib_targets::Slate;
 use fslcal_core::{CameraModel, Vec2, Vec3};
-use opencv::core::{no_array, DMatch, KeyPoint, Mat, Point, Point2f, Rect, Scalar, Size, ToInputArray, Vector, CV_8UC1, NORM_HAMMING, NORM_L2};
+use opencv::core::{
+    no_array, DMatch, KeyPoint, Mat, Point, Point2f, Rect, Scalar, Size, ToInputArray, Vector, CV_8UC1, NORM_HAMMING,
+    NORM_L2,
+};
 use opencv::features2d::{BFMatcher, AKAZE, ORB, SIFT};
 use opencv::prelude::*;
 use opencv::{calib3d, imgproc};
@@ -59,7 +62,9 @@ const MAX_FEATURES: i32 = 4000;
 fn detector(kind: Features) -> opencv::Result<opencv::core::Ptr<opencv::features2d::Feature2D>> {
     Ok(match kind {
         Features::Sift => SIFT::create(MAX_FEATURES, 3, 0.03, 10.0, 1.6)?.into(),
-        Features::Orb => ORB::create(MAX_FEATURES, 1.2, 8, 31, 0, 2, opencv::features2d::ORB_ScoreType::HARRIS_SCORE, 31, 10)?.into(),
+        Features::Orb => {
+            ORB::create(MAX_FEATURES, 1.2, 8, 31, 0, 2, opencv::features2d::ORB_ScoreType::HARRIS_SCORE, 31, 10)?.into()
+        }
         Features::Akaze => AKAZE::create_def()?.into(),
     })
 }
@@ -114,17 +119,24 @@ impl Homography {
 }
 
 /// RANSAC homography from `src` to `dst`; the homography and the inlier indices.
-fn ransac_homography(src: &[Vec2], dst: &[Vec2], threshold_px: f64) -> opencv::Result<Option<(Homography, Vec<usize>)>> {
+fn ransac_homography(
+    src: &[Vec2],
+    dst: &[Vec2],
+    threshold_px: f64,
+) -> opencv::Result<Option<(Homography, Vec<usize>)>> {
     if src.len() < 4 {
         return Ok(None);
     }
     let to_cv = |v: &[Vec2]| v.iter().map(|p| Point2f::new(p.x as f32, p.y as f32)).collect::<Vector<Point2f>>();
     let mut mask = Mat::default();
-    let h = calib3d::find_homography_ext(&to_cv(src), &to_cv(dst), calib3d::RANSAC, threshold_px, &mut mask, 5000, 0.999)?;
+    let h =
+        calib3d::find_homography_ext(&to_cv(src), &to_cv(dst), calib3d::RANSAC, threshold_px, &mut mask, 5000, 0.999)?;
     if h.empty() {
         return Ok(None);
     }
-    let m = Homography(std::array::from_fn(|i| std::array::from_fn(|j| *h.at_2d::<f64>(i as i32, j as i32).unwrap_or(&f64::NAN))));
+    let m = Homography(std::array::from_fn(|i| {
+        std::array::from_fn(|j| *h.at_2d::<f64>(i as i32, j as i32).unwrap_or(&f64::NAN))
+    }));
     if m.0.iter().flatten().any(|v| !v.is_finite()) {
         return Ok(None);
     }
@@ -150,7 +162,10 @@ impl SlateModel {
         if set.points_px.len() < 2 * MIN_INLIERS {
             return Err(VisionError::OpenCv {
                 path: slate.scan.display().to_string(),
-                message: format!("only {} features on the scan: a slate needs texture (tape, writing) to be found", set.points_px.len()),
+                message: format!(
+                    "only {} features on the scan: a slate needs texture (tape, writing) to be found",
+                    set.points_px.len()
+                ),
             });
         }
         Ok(SlateModel { slate, features, scan_size, scan: set })
@@ -243,7 +258,8 @@ fn convex_hull_area(points: &[Vec2]) -> f64 {
     let mut hull: Vec<Vec2> = Vec::new();
     for pass in 0..2 {
         let start = hull.len();
-        let iter: Box<dyn Iterator<Item = &Vec2>> = if pass == 0 { Box::new(p.iter()) } else { Box::new(p.iter().rev()) };
+        let iter: Box<dyn Iterator<Item = &Vec2>> =
+            if pass == 0 { Box::new(p.iter()) } else { Box::new(p.iter().rev()) };
         for &q in iter {
             while hull.len() >= start + 2 && cross(hull[hull.len() - 2], hull[hull.len() - 1], q) <= 0.0 {
                 hull.pop();
@@ -257,7 +273,11 @@ fn convex_hull_area(points: &[Vec2]) -> f64 {
 }
 
 /// Finds the slate in `photo` and its pose `T_cam_target`.
-pub fn find_slate(model: &SlateModel, encoded: &EncodedPhoto, camera: &CameraModel) -> Result<SlateDetection, SlateMiss> {
+pub fn find_slate(
+    model: &SlateModel,
+    encoded: &EncodedPhoto,
+    camera: &CameraModel,
+) -> Result<SlateDetection, SlateMiss> {
     let (coarse_h, found_at_factor) = coarse(model, encoded)?;
     let photo = encoded.decode_full()?;
     let cv = |e: opencv::Error| SlateMiss::Vision(VisionError::cv(encoded.path, e));
@@ -284,7 +304,9 @@ pub fn find_slate(model: &SlateModel, encoded: &EncodedPhoto, camera: &CameraMod
         let mut s = Mat::default();
         let size = Size::new(rect.width / fine_factor as i32, rect.height / fine_factor as i32);
         // Exactly `fine_factor` pixels per reduced pixel, so `to_full` holds.
-        let cropped = Mat::roi(&crop, Rect::new(0, 0, size.width * fine_factor as i32, size.height * fine_factor as i32)).map_err(cv)?;
+        let cropped =
+            Mat::roi(&crop, Rect::new(0, 0, size.width * fine_factor as i32, size.height * fine_factor as i32))
+                .map_err(cv)?;
         imgproc::resize(&cropped, &mut s, size, 0.0, 0.0, imgproc::INTER_AREA).map_err(cv)?;
         s
     } else {
@@ -293,7 +315,8 @@ pub fn find_slate(model: &SlateModel, encoded: &EncodedPhoto, camera: &CameraMod
     // Features only on the slate: the mask is its outline in the crop.
     let origin = Vec2::new(x0, y0);
     let f = fine_factor as f64;
-    let mut mask = Mat::new_rows_cols_with_default(small.rows(), small.cols(), CV_8UC1, Scalar::all(0.0)).map_err(cv)?;
+    let mut mask =
+        Mat::new_rows_cols_with_default(small.rows(), small.cols(), CV_8UC1, Scalar::all(0.0)).map_err(cv)?;
     let poly: Vector<Point> = outline
         .iter()
         .map(|p| {
@@ -359,7 +382,9 @@ fn check_pose(pose: &TargetPose, model: &SlateModel, fine_factor: f64) -> Result
     let facing = n.dot(&(centre / centre.norm()));
     let obliquity = facing.clamp(-1.0, 1.0).acos().to_degrees();
     if facing <= 0.0 || obliquity > MAX_OBLIQUITY_DEG {
-        return Err(SlateMiss::Implausible(format!("the slate would be seen {obliquity:.0} deg from face-on (limit {MAX_OBLIQUITY_DEG:.0})")));
+        return Err(SlateMiss::Implausible(format!(
+            "the slate would be seen {obliquity:.0} deg from face-on (limit {MAX_OBLIQUITY_DEG:.0})"
+        )));
     }
     Ok(())
 }

@@ -48,8 +48,11 @@ fn main() {
 }
 
 fn batch(dir: &std::path::Path) {
-    let mut raws: Vec<std::path::PathBuf> =
-        std::fs::read_dir(dir).unwrap().map(|e| e.unwrap().path()).filter(|p| p.extension().is_some_and(|e| e == "ORF")).collect();
+    let mut raws: Vec<std::path::PathBuf> = std::fs::read_dir(dir)
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .filter(|p| p.extension().is_some_and(|e| e == "ORF"))
+        .collect();
     raws.sort();
     let count = raws.len();
     let out = dir.join("png");

@@ -10,8 +10,8 @@ use calib_targets::scene::Water;
 use calib_targets::Checkerboard;
 use fslcal::camera::opencv_yaml;
 use fslcal::dot::candidates::DotDetectorParams;
-use fslcal::laser::pipeline::{calibrate, examine_photo, HandDots, LaserJob};
 use fslcal::laser::fit::{Gates, Method};
+use fslcal::laser::pipeline::{calibrate, examine_photo, HandDots, LaserJob};
 use std::time::{Duration, Instant};
 
 fn median(mut v: Vec<Duration>) -> Duration {
@@ -52,5 +52,9 @@ fn main() {
         assert!(r.is_err(), "the no-board photo must be rejected");
     }
     println!("laser chain, 16 photos 4000x3000 JPEG, {threads} threads: median {:.3} s over {runs} run(s) (target ~1.2 s on 2 cores)", median(chain).as_secs_f64());
-    println!("no-board photo rejected: median {:.1} ms over {} run(s) (target < 150 ms)", median(reject).as_secs_f64() * 1e3, runs.max(3));
+    println!(
+        "no-board photo rejected: median {:.1} ms over {} run(s) (target < 150 ms)",
+        median(reject).as_secs_f64() * 1e3,
+        runs.max(3)
+    );
 }

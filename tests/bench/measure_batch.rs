@@ -20,16 +20,23 @@ fn main() {
     let dive = set.dir.join("dive");
     let _ = std::fs::remove_dir_all(&dive);
     std::fs::create_dir_all(dive.join("masks")).unwrap();
-    let (mut photos, mut dots, mut labels) = (Vec::new(), String::from("file,x,y\n"), String::from("photo,head_x,head_y,tail_x,tail_y,dot_x,dot_y\n"));
+    let (mut photos, mut dots, mut labels) =
+        (Vec::new(), String::from("file,x,y\n"), String::from("photo,head_x,head_y,tail_x,tail_y,dot_x,dot_y\n"));
     for c in 0..copies {
         for (i, (p, t)) in set.photos.iter().zip(&set.truths).enumerate() {
             let name = format!("dive_{c:03}_{i}");
             let photo = dive.join(format!("{name}.jpg"));
             link(p, &photo);
-            link(&set.dir.join("masks").join(p.file_stem().unwrap()).with_extension("png"), &dive.join("masks").join(format!("{name}.png")));
+            link(
+                &set.dir.join("masks").join(p.file_stem().unwrap()).with_extension("png"),
+                &dive.join("masks").join(format!("{name}.png")),
+            );
             let d = t.dot.as_ref().unwrap().pixel;
             dots += &format!("{name}.jpg,{},{}\n", d[0], d[1]);
-            labels += &format!("{name}.jpg,{},{},{},{},{},{}\n", t.snout_px[0], t.snout_px[1], t.fork_px[0], t.fork_px[1], d[0], d[1]);
+            labels += &format!(
+                "{name}.jpg,{},{},{},{},{},{}\n",
+                t.snout_px[0], t.snout_px[1], t.fork_px[0], t.fork_px[1], d[0], d[1]
+            );
             photos.push(photo.display().to_string());
         }
     }
@@ -37,7 +44,15 @@ fn main() {
     std::fs::write(dive.join("labels.csv"), labels).unwrap();
     let cal = set.cal.display().to_string();
     let runs: [(&str, Vec<String>); 2] = [
-        ("masks", vec!["--masks".into(), dive.join("masks").display().to_string(), "--dots".into(), dive.join("dots.csv").display().to_string()]),
+        (
+            "masks",
+            vec![
+                "--masks".into(),
+                dive.join("masks").display().to_string(),
+                "--dots".into(),
+                dive.join("dots.csv").display().to_string(),
+            ],
+        ),
         ("labels", vec!["--labels".into(), dive.join("labels.csv").display().to_string()]),
     ];
     for (what, extra) in runs {

@@ -3,13 +3,16 @@
 #![allow(dead_code)]
 
 use calib_targets::fish::{fish_scene_set, render_fish, FishTruth};
-use calib_targets::scene::{laser_scene_set, render, render_slate, slate_scene_set, RenderedScene, SceneSpec, SceneTruth, SlateSpec, SlateTexture, Water};
+use calib_targets::scene::{
+    laser_scene_set, render, render_slate, slate_scene_set, RenderedScene, SceneSpec, SceneTruth, SlateSpec,
+    SlateTexture, Water,
+};
 use calib_targets::Slate;
 use calib_targets::{camera_yaml, write_fish, write_scene};
 use fslcal::calibration::camera_json;
 use fslcal_core::{CameraModel, LaserLine};
-use serde_json::json;
 use rayon::prelude::*;
+use serde_json::json;
 use std::path::{Path, PathBuf};
 
 pub struct SceneSet {
@@ -33,7 +36,12 @@ pub fn render_set(name: &str, specs: &[SceneSpec]) -> SceneSet {
 }
 
 /// Renders `count` scenes with `render_one(i)` into a fresh folder `name` (see `render_set`).
-fn render_with(name: &str, count: usize, camera: &CameraModel, render_one: &(dyn Fn(usize) -> RenderedScene + Sync)) -> SceneSet {
+fn render_with(
+    name: &str,
+    count: usize,
+    camera: &CameraModel,
+    render_one: &(dyn Fn(usize) -> RenderedScene + Sync),
+) -> SceneSet {
     let dir = Path::new(env!("CARGO_TARGET_TMPDIR")).join(name);
     let _ = std::fs::remove_dir_all(&dir);
     std::fs::create_dir_all(&dir).expect("scratch folder");
@@ -62,7 +70,15 @@ pub fn example_slate() -> Slate {
 }
 
 /// Photos of the example slate from `laser`, as `slate_scene_set` places them.
-pub fn slate_set(name: &str, laser: LaserLine, depths_m: (f64, f64), count: usize, seed: u64, water: Water, glints: u32) -> SceneSet {
+pub fn slate_set(
+    name: &str,
+    laser: LaserLine,
+    depths_m: (f64, f64),
+    count: usize,
+    seed: u64,
+    water: Water,
+    glints: u32,
+) -> SceneSet {
     let texture = SlateTexture::from_slate(&example_slate()).expect("the example scan");
     let specs: Vec<SlateSpec> = slate_scene_set(&texture, laser, depths_m, count, seed, water, glints);
     render_with(name, specs.len(), &specs[0].camera, &|i| render_slate(&texture, &specs[i]))
@@ -120,7 +136,11 @@ pub fn fish_set(name: &str, count: usize, seed: u64) -> FishSet {
                 let fish = render_fish(spec);
                 write_fish(&dir, &format!("fish_{i:02}"), &fish).unwrap();
                 // Masks live in their own folder, as a segmenter's output would.
-                std::fs::rename(dir.join(format!("fish_{i:02}_mask.png")), dir.join("masks").join(format!("fish_{i:02}.png"))).unwrap();
+                std::fs::rename(
+                    dir.join(format!("fish_{i:02}_mask.png")),
+                    dir.join("masks").join(format!("fish_{i:02}.png")),
+                )
+                .unwrap();
                 fish.truth
             })
             .collect();
@@ -149,11 +169,14 @@ pub fn fish_set(name: &str, count: usize, seed: u64) -> FishSet {
     }
 }
 
-
 /// A calibration of the TG-6 rig with `laser`, covering 0.45-2.2 m (the slate scenes'
 /// depths), with independent variances for the origin's x and y (m²) and the direction's
 /// slopes x/z and y/z.
-pub fn tg6_calibration(laser: fslcal_core::LaserLine, origin_var_m2: f64, slope_var: f64) -> fslcal::calibration::Calibration {
+pub fn tg6_calibration(
+    laser: fslcal_core::LaserLine,
+    origin_var_m2: f64,
+    slope_var: f64,
+) -> fslcal::calibration::Calibration {
     let (o, d) = (origin_var_m2, slope_var);
     fslcal::calibration::Calibration {
         camera: calib_targets::rig::tg6_camera(),

@@ -94,5 +94,9 @@ fn main() -> ExitCode {
         return ExitCode::FAILURE;
     }
     println!("{}", camera.display());
-    if failed { ExitCode::FAILURE } else { ExitCode::SUCCESS }
+    if failed {
+        ExitCode::FAILURE
+    } else {
+        ExitCode::SUCCESS
+    }
 }

@@ -81,7 +81,10 @@ fn parse_script<'a>(path: &Path, text: &'a str) -> anyhow::Result<Vec<Step<'a>>>
         let file = match command {
             Command::Load { path: p } => {
                 let full = base.join(p);
-                Some(std::fs::read(&full).with_context(|| format!("{}:{}: cannot read {}", path.display(), i + 1, full.display()))?)
+                Some(
+                    std::fs::read(&full)
+                        .with_context(|| format!("{}:{}: cannot read {}", path.display(), i + 1, full.display()))?,
+                )
             }
             _ => None,
         };
@@ -94,7 +97,8 @@ fn parse_script<'a>(path: &Path, text: &'a str) -> anyhow::Result<Vec<Step<'a>>>
 }
 
 fn run(args: &RunArgs) -> anyhow::Result<()> {
-    let text = std::fs::read_to_string(&args.script).with_context(|| format!("cannot read the script {}", args.script.display()))?;
+    let text = std::fs::read_to_string(&args.script)
+        .with_context(|| format!("cannot read the script {}", args.script.display()))?;
     let steps = parse_script(&args.script, &text)?;
     if !(1..=16).contains(&args.scale) {
         bail!("--scale {} is out of range; use 1 to 16", args.scale);
@@ -135,7 +139,10 @@ fn run(args: &RunArgs) -> anyhow::Result<()> {
                 serde_json::json!({ "line": line, "png": png, "screen": format!("{screen:?}"), "summary": what })
             })
             .collect();
-        println!("{}", serde_json::json!({ "script": args.script.display().to_string(), "out": args.out.display().to_string(), "steps": steps }));
+        println!(
+            "{}",
+            serde_json::json!({ "script": args.script.display().to_string(), "out": args.out.display().to_string(), "steps": steps })
+        );
     } else {
         for (line, png, screen, what) in &report {
             println!("line {line:>3}  {png:<20} {:<14} {what}", format!("{screen:?}"));
@@ -170,7 +177,10 @@ fn summary(fw: &Firmware) -> String {
     }
 }
 
-fn encode_png(display: &SimulatorDisplay<BinaryColor>, settings: &embedded_graphics_simulator::OutputSettings) -> anyhow::Result<Vec<u8>> {
+fn encode_png(
+    display: &SimulatorDisplay<BinaryColor>,
+    settings: &embedded_graphics_simulator::OutputSettings,
+) -> anyhow::Result<Vec<u8>> {
     use image::ImageEncoder;
     let img = display.to_rgb_output_image(settings);
     let buf = img.as_image_buffer();

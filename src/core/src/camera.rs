@@ -205,9 +205,7 @@ mod tests {
         let mut cam = tg6_like();
         cam.distortion = Distortion::NONE;
         // 290 px apart at 2 m with f = 2900 px: 0.2 m.
-        let l = cam
-            .length_at_depth(Vec2::new(2010.0, 1490.0), Vec2::new(2300.0, 1490.0), 2.0)
-            .unwrap();
+        let l = cam.length_at_depth(Vec2::new(2010.0, 1490.0), Vec2::new(2300.0, 1490.0), 2.0).unwrap();
         assert!((l - 0.2).abs() < 1e-12);
     }
 }

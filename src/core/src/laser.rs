@@ -112,12 +112,7 @@ impl LaserLine {
         }
         let on_ray = v * lambda2;
         let on_laser = l + d * lambda1;
-        Some(DotFix {
-            point_m: on_ray,
-            depth_m: on_ray.z,
-            along_laser_m: lambda1,
-            miss_m: (on_ray - on_laser).norm(),
-        })
+        Some(DotFix { point_m: on_ray, depth_m: on_ray.z, along_laser_m: lambda1, miss_m: (on_ray - on_laser).norm() })
     }
 
     /// [`LaserLine::fix_from_ray`] for a dot seen at a pixel.

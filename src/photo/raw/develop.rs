@@ -133,7 +133,8 @@ pub struct ToneCurve {
 impl ToneCurve {
     /// sRGB to `max` (255 for 8-bit, 65535 for 16-bit).
     pub fn srgb(max: u16) -> ToneCurve {
-        let table = (0..=TONE_STEPS).map(|i| (srgb_encode(i as f32 / TONE_STEPS as f32) * max as f32).round() as u16).collect();
+        let table =
+            (0..=TONE_STEPS).map(|i| (srgb_encode(i as f32 / TONE_STEPS as f32) * max as f32).round() as u16).collect();
         ToneCurve { table, max: max as f32 }
     }
 
@@ -164,7 +165,14 @@ pub enum Order {
 /// Writes one demosaiced row into an interleaved 3-channel output row, balanced by `gains`
 /// and shaped by `tone`.
 #[inline]
-pub fn write_row<T: Copy>(row: &[[f32; 3]], gains: [f32; 3], tone: &ToneCurve, order: Order, out: &mut [T], cast: fn(u16) -> T) {
+pub fn write_row<T: Copy>(
+    row: &[[f32; 3]],
+    gains: [f32; 3],
+    tone: &ToneCurve,
+    order: Order,
+    out: &mut [T],
+    cast: fn(u16) -> T,
+) {
     let (a, c) = match order {
         Order::Rgb => (0, 2),
         Order::Bgr => (2, 0),
@@ -181,7 +189,9 @@ pub fn developed_rgb8(frame: &RawFrame, gw: &GreyWorld) -> Vec<u8> {
     let tone = ToneCurve::srgb(255);
     let mut out = vec![0u8; frame.width * frame.height * 3];
     let stride = frame.width * 3;
-    for_each_row(frame, |y, row| write_row(row, gw.gains, &tone, Order::Rgb, &mut out[y * stride..(y + 1) * stride], |v| v as u8));
+    for_each_row(frame, |y, row| {
+        write_row(row, gw.gains, &tone, Order::Rgb, &mut out[y * stride..(y + 1) * stride], |v| v as u8)
+    });
     out
 }
 
@@ -190,7 +200,9 @@ pub fn developed_rgb16(frame: &RawFrame, gw: &GreyWorld, linear: bool) -> Vec<u1
     let tone = if linear { ToneCurve::linear(u16::MAX) } else { ToneCurve::srgb(u16::MAX) };
     let mut out = vec![0u16; frame.width * frame.height * 3];
     let stride = frame.width * 3;
-    for_each_row(frame, |y, row| write_row(row, gw.gains, &tone, Order::Rgb, &mut out[y * stride..(y + 1) * stride], |v| v));
+    for_each_row(frame, |y, row| {
+        write_row(row, gw.gains, &tone, Order::Rgb, &mut out[y * stride..(y + 1) * stride], |v| v)
+    });
     out
 }
 

@@ -91,13 +91,16 @@ impl RawFrame {
         silence_rawler_panics();
         let source = rawler::rawsource::RawSource::new_from_shared_vec(Arc::new(bytes)).with_path(path);
         let image = rawler::decode(&source, &rawler::decoders::RawDecodeParams::default()).map_err(|e| match e {
-            rawler::RawlerError::Unsupported { make, model, .. } => RawError::Unsupported { path: name.clone(), make, model },
+            rawler::RawlerError::Unsupported { make, model, .. } => {
+                RawError::Unsupported { path: name.clone(), make, model }
+            }
             rawler::RawlerError::DecoderFailed(why) if why.contains("Caught a panic") => {
                 RawError::Corrupt { path: name.clone(), why: "the decoder could not make sense of its contents".into() }
             }
-            rawler::RawlerError::DecoderFailed(why) => {
-                RawError::Corrupt { path: name.clone(), why: why.lines().next().unwrap_or("decoder failed").trim().to_string() }
-            }
+            rawler::RawlerError::DecoderFailed(why) => RawError::Corrupt {
+                path: name.clone(),
+                why: why.lines().next().unwrap_or("decoder failed").trim().to_string(),
+            },
         })?;
         drop(source);
         Self::from_rawler(image, &name)
@@ -143,7 +146,11 @@ impl RawFrame {
             return Err(corrupt("its white level is not above its black level"));
         }
         let wb = image.wb_coeffs;
-        let camera_wb = if wb[..3].iter().all(|v| v.is_finite() && *v > 0.0) { [wb[0] / wb[1], 1.0, wb[2] / wb[1]] } else { [1.0; 3] };
+        let camera_wb = if wb[..3].iter().all(|v| v.is_finite() && *v > 0.0) {
+            [wb[0] / wb[1], 1.0, wb[2] / wb[1]]
+        } else {
+            [1.0; 3]
+        };
         let samples = match image.data {
             rawler::RawImageData::Integer(v) => v,
             rawler::RawImageData::Float(_) => return Err(corrupt("floating-point samples")),
