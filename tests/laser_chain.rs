@@ -207,6 +207,6 @@ fn degenerate_input_is_refused_with_the_reason() {
     let mut small = j.clone();
     small.camera.width_px = 640;
     small.camera.height_px = 480;
-    let err = calibrate(&small, &set.photos[..3], &|| {}).err().expect("size mismatch must be refused");
+    let err = calibrate(&small, &set.photos[..3], &|| {}).expect_err("size mismatch must be refused");
     assert!(err.to_string().contains("4000x3000") && err.to_string().contains("640x480"), "{err}");
 }

@@ -206,7 +206,7 @@ fn raw_laser_set() -> &'static RawLaserSet {
         let camera_file = dir.join("camera.yml");
         let yaml = camera_yaml(&specs[0].camera) + "camera_serial: \"BHR201234\"\nfocal_length_mm: 4.5\n";
         std::fs::write(&camera_file, yaml).unwrap();
-        RawLaserSet { dir, photos, camera_file, truth_origin_m: specs[0].laser.unwrap().origin_m.into() }
+        RawLaserSet { dir, photos, camera_file, truth_origin_m: specs[0].laser.unwrap().origin_m }
     })
 }
 
@@ -356,7 +356,7 @@ fn every_command_that_takes_a_calibration_refuses_another_body() {
     let cal = cal.to_str().unwrap();
     let others = other_body_copies(set, "other-body-cal");
     let others: Vec<&str> = others.iter().map(String::as_str).collect();
-    let refused = |o: &std::process::Output, what: &str| {
+    let refused = |o: &Output, what: &str| {
         assert!(!o.status.success(), "{what} accepted another body's photos");
         let line = last_stderr_line(o);
         assert!(

@@ -134,7 +134,7 @@ pub struct FishPose {
 
 impl FishPose {
     /// Camera-frame point of a plane-frame point.
-    fn to_camera(&self, q: Vec2) -> Vec3 {
+    fn camera_point(&self, q: Vec2) -> Vec3 {
         self.t_cam_target().apply(&Vec3::new(q.x, q.y, 0.0))
     }
 
@@ -213,8 +213,9 @@ pub fn render_fish(spec: &FishSpec) -> RenderedFish {
         .collect();
     let mask = GrayImage::from_raw(w as u32, h as u32, bits).expect("buffer matches the image size");
     let project = |s: f64| {
-        let p =
-            cam.project(&spec.pose.to_camera(spec.shape.spine_point(s))).expect("the fish is in front of the camera");
+        let p = cam
+            .project(&spec.pose.camera_point(spec.shape.spine_point(s)))
+            .expect("the fish is in front of the camera");
         [p.x, p.y]
     };
     RenderedFish {
@@ -233,7 +234,7 @@ pub fn render_fish(spec: &FishSpec) -> RenderedFish {
 /// Whether the whole fish is in the image, `margin_px` from the border.
 fn fish_in_frame(camera: &CameraModel, shape: &FishShape, pose: &FishPose, margin_px: f64) -> bool {
     shape.outline_samples().iter().all(|q| {
-        camera.project(&pose.to_camera(*q)).is_some_and(|p| {
+        camera.project(&pose.camera_point(*q)).is_some_and(|p| {
             p.x >= margin_px
                 && p.y >= margin_px
                 && p.x <= camera.width_px as f64 - 1.0 - margin_px
@@ -254,7 +255,7 @@ pub fn pose_with_dot(
 ) -> FishPose {
     let hit = laser.point_at_depth(depth_m);
     let probe = FishPose { depth_m, snout_xy_m: [0.0, 0.0], heading_rad, mirrored };
-    let on_fish = probe.to_camera(
+    let on_fish = probe.camera_point(
         shape.spine_point(dot_at * shape.fork_length_m) + Vec2::new(0.0, 0.1 * shape.depth * shape.fork_length_m),
     );
     FishPose { depth_m, snout_xy_m: [hit.x - on_fish.x, hit.y - on_fish.y], heading_rad, mirrored }

@@ -615,7 +615,7 @@ pub(crate) fn render_setup(spec: &Setup) -> RenderedScene {
     if spec.impostor {
         for _ in 0..100 {
             let c = Vec2::new(rng.range(60.0, w as f64 - 60.0), rng.range(60.0, h as f64 - 60.0));
-            let far = dot.as_ref().map_or(true, |d| (Vec2::new(d.pixel[0], d.pixel[1]) - c).norm() >= 60.0);
+            let far = dot.as_ref().is_none_or(|d| (Vec2::new(d.pixel[0], d.pixel[1]) - c).norm() >= 60.0);
             if far {
                 let r = rng.range(2.0, 6.0);
                 let level = rng.range(120.0, 400.0);
@@ -636,7 +636,7 @@ pub(crate) fn render_setup(spec: &Setup) -> RenderedScene {
         .par_chunks(w)
         .enumerate()
         .flat_map_iter(|(y, row)| {
-            let mut g = SplitMix::derive(seed ^ 0x4E01_5E, y as u64);
+            let mut g = SplitMix::derive(seed ^ 0x004E_015E, y as u64);
             row.iter()
                 .flat_map(|p| *p)
                 .map(move |c| (c as f64 + noise * g.gaussian()).round().clamp(0.0, 255.0) as u8)

@@ -1,3 +1,4 @@
+#![allow(unsafe_code)] // Reads the host stack pointer and paints the stack: the only way to estimate stack use.
 //! RAM the firmware needs: the size of its whole state, and the stack its deepest paths use,
 //! measured by painting the stack (fill it with a pattern, run the path, find the lowest
 //! byte it overwrote; x86_64 only, where CI runs). See the figures with
@@ -104,11 +105,11 @@ fn the_stack_painting_measures_a_known_array() {
 
 #[test]
 fn firmware_state_and_stack_fit_a_cortex_m4() {
-    let state = std::mem::size_of::<Firmware>();
+    let state = size_of::<Firmware>();
     println!(
         "size_of::<Firmware>() = {state} bytes (the whole state: file buffer {} B, calibration {} B)",
         unit_file::MAX_FILE_BYTES,
-        std::mem::size_of::<firmware_sim::Calibration>()
+        size_of::<firmware_sim::Calibration>()
     );
     assert!(state < 16 * 1024, "{state}");
 
@@ -161,7 +162,7 @@ fn firmware_state_and_stack_fit_a_cortex_m4() {
     fw.lock().unwrap().handle(Event::Dot { u_px: 1986.0, v_px: 1432.7 });
     let fb = std::sync::Mutex::new(Box::new(Framebuffer([0; 1024])));
     let draw = stack_used(move || {
-        screens::draw(&**fw.lock().unwrap(), &mut **fb.lock().unwrap()).unwrap();
+        screens::draw(&fw.lock().unwrap(), &mut **fb.lock().unwrap()).unwrap();
     });
     println!("stack, decode only (SignedUnitFile::decode): {decode} bytes");
     println!("stack, ed25519 verify_strict alone: {ed25519} bytes");

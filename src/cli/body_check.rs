@@ -1,5 +1,8 @@
 //! The camera-body check every command that takes a calibration runs on its photos.
 
+// Only the commands that find targets (vision feature) use all of this.
+#![cfg_attr(not(feature = "vision"), allow(dead_code))]
+
 use crate::photo::identity::{check_photos, ExpectedCamera};
 use std::path::PathBuf;
 

@@ -330,6 +330,11 @@ fn mask_for(dir: &Path, photo: &Path) -> Option<PathBuf> {
         .find(|p| p.is_file() && p.canonicalize().ok() != photo.canonicalize().ok())
 }
 
+/// One fish to measure in a photo: its species, its end points (head, tail, a confidence,
+/// whether the frame cuts it, how the head was called) or why it is withheld, and a dot
+/// given with its labels.
+type FishInPhoto = (Option<String>, Result<(Vec2, Vec2, f64, bool, HeadCall), Withheld>, Option<Vec2>);
+
 fn measure_photo(
     cal: &Calibration,
     photo: &Path,
@@ -350,7 +355,7 @@ fn measure_photo(
             })
             .map(|d| d.1)
     };
-    let mut fish: Vec<(Option<String>, Result<(Vec2, Vec2, f64, bool, HeadCall), Withheld>, Option<Vec2>)> = Vec::new();
+    let mut fish: Vec<FishInPhoto> = Vec::new();
     match source {
         Ends::Labels(labels) => {
             for l in labels.iter().filter(|l| l.names_photo(photo)) {

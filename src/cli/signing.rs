@@ -1,5 +1,8 @@
 //! The options every command that signs a unit file shares (`laser`, `import`).
 
+// Only the commands that find targets (vision feature) use all of this.
+#![cfg_attr(not(feature = "vision"), allow(dead_code))]
+
 use crate::photo::identity::ExpectedCamera;
 use crate::units::signed_file::{self, UnitFileError};
 use fslcal_core::unit_file::{self, CameraIdentity, UnitFile};

@@ -160,7 +160,7 @@ fn summary(v: &Validation) -> String {
             name_of(&p.file),
             f(p.distance_m, 3),
             f(p.measured_mm, 1),
-            f(p.error_pct.map(|e| e), 2)
+            f(p.error_pct, 2)
         );
     }
     let errs: Vec<f64> = v.photos.iter().filter_map(|p| p.error_pct).collect();

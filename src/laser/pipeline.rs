@@ -571,8 +571,7 @@ pub fn calibrate(
                 .enumerate()
                 .filter(|(i, r)| match r {
                     Ok(e) => {
-                        e.dot_source != DotSource::Hand
-                            && first.photos[*i].as_ref().map_or(true, |p| p.outlier.is_some())
+                        e.dot_source != DotSource::Hand && first.photos[*i].as_ref().is_none_or(|p| p.outlier.is_some())
                     }
                     Err(_) => false,
                 })
@@ -581,7 +580,7 @@ pub fn calibrate(
             let found: Vec<(usize, Option<DotCandidate>)> = retry
                 .par_iter()
                 .map(|&i| {
-                    let e = results[i].as_ref().ok().expect("retry holds only photos with evidence");
+                    let e = results[i].as_ref().expect("retry holds only photos with evidence");
                     (i, search_near_prediction(job, &photos[i], e, &first.laser))
                 })
                 .collect();

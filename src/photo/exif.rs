@@ -31,7 +31,7 @@ impl PhotoExif {
     /// Reads the EXIF of a JPEG or a TIFF-based raw (ORF). `None`: the file carries none.
     pub fn from_bytes(bytes: &[u8]) -> Option<PhotoExif> {
         if bytes.starts_with(&[0xFF, 0xD8]) {
-            return jpeg_exif_tiff(bytes).and_then(|t| read_tiff(t));
+            return jpeg_exif_tiff(bytes).and_then(read_tiff);
         }
         read_tiff(bytes)
     }

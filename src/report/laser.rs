@@ -65,7 +65,7 @@ fn photo_points(cal: &LaserCalibration, camera: &CameraModel) -> Vec<PhotoPoint>
 /// Depths to draw the line and the band over: the dots' range widened to the working
 /// range a diver measures fish in.
 fn depth_axis(cal: &LaserCalibration) -> (f64, f64) {
-    (cal.fit.depth_range_m.0.min(0.5).max(0.1), cal.fit.depth_range_m.1.max(5.0))
+    (cal.fit.depth_range_m.0.clamp(0.1, 0.5), cal.fit.depth_range_m.1.max(5.0))
 }
 
 fn samples(lo: f64, hi: f64, n: usize) -> Vec<f64> {

@@ -157,15 +157,15 @@ impl Page {
     }
 
     pub fn heading(&mut self, text: &str) {
-        let _ = write!(self.body, "<h2>{}</h2>\n", escape(text));
+        let _ = writeln!(self.body, "<h2>{}</h2>", escape(text));
     }
 
     pub fn paragraph(&mut self, text: &str) {
-        let _ = write!(self.body, "<p>{}</p>\n", escape(text));
+        let _ = writeln!(self.body, "<p>{}</p>", escape(text));
     }
 
     pub fn note(&mut self, text: &str) {
-        let _ = write!(self.body, "<p class=\"note\">{}</p>\n", escape(text));
+        let _ = writeln!(self.body, "<p class=\"note\">{}</p>", escape(text));
     }
 
     pub fn verdict(&mut self, verdict: Verdict, text: &str) {
@@ -174,19 +174,19 @@ impl Page {
             Verdict::Warning => "warning",
             Verdict::Rejected => "rejected",
         };
-        let _ = write!(self.body, "<div class=\"verdict {class}\">{}</div>\n", escape(text));
+        let _ = writeln!(self.body, "<div class=\"verdict {class}\">{}</div>", escape(text));
     }
 
     /// Lines of preformatted text (a command's terminal summary).
     pub fn preformatted(&mut self, text: &str) {
-        let _ = write!(self.body, "<pre>{}</pre>\n", escape(text));
+        let _ = writeln!(self.body, "<pre>{}</pre>", escape(text));
     }
 
     /// A figure: an image file beside the page (relative path) with its caption.
     pub fn figure(&mut self, src: &str, alt: &str, caption: &str, size: (u32, u32)) {
-        let _ = write!(
+        let _ = writeln!(
             self.body,
-            "<figure><img src=\"{}\" alt=\"{}\" width=\"{}\" height=\"{}\"><figcaption>{}</figcaption></figure>\n",
+            "<figure><img src=\"{}\" alt=\"{}\" width=\"{}\" height=\"{}\"><figcaption>{}</figcaption></figure>",
             escape(src),
             escape(alt),
             size.0,

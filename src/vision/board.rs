@@ -51,7 +51,7 @@ pub fn find_checkerboard(photo: &EncodedPhoto, cols: u32, rows: u32) -> Result<O
             return Ok(Some(BoardSearch { corners_px, found_at_factor: factor }));
         }
         // A full-resolution pass only pays for small images (e.g. 640x480).
-        if factor == 2 && full.as_ref().map_or(true, |g| g.cols() > 1600) {
+        if factor == 2 && full.as_ref().is_none_or(|g| g.cols() > 1600) {
             break;
         }
     }

@@ -172,11 +172,7 @@ pub fn fish_set(name: &str, count: usize, seed: u64) -> FishSet {
 /// A calibration of the TG-6 rig with `laser`, covering 0.45-2.2 m (the slate scenes'
 /// depths), with independent variances for the origin's x and y (m²) and the direction's
 /// slopes x/z and y/z.
-pub fn tg6_calibration(
-    laser: fslcal_core::LaserLine,
-    origin_var_m2: f64,
-    slope_var: f64,
-) -> fslcal::calibration::Calibration {
+pub fn tg6_calibration(laser: LaserLine, origin_var_m2: f64, slope_var: f64) -> fslcal::calibration::Calibration {
     let (o, d) = (origin_var_m2, slope_var);
     fslcal::calibration::Calibration {
         camera: calib_targets::rig::tg6_camera(),

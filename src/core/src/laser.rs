@@ -143,7 +143,7 @@ impl LaserLine {
         for i in 0..=n {
             let z = libm::exp(ln_a + (ln_b - ln_a) * i as f64 / n as f64);
             if let Some(e) = f(z) {
-                if best.map_or(true, |(_, b)| e < b) {
+                if best.is_none_or(|(_, b)| e < b) {
                     best = Some((z, e));
                 }
             }

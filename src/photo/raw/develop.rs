@@ -221,11 +221,11 @@ pub fn binned_grey(frame: &RawFrame, gw: &GreyWorld, factor: usize) -> (Vec<u8>,
         for y in by * f..(by + 1) * f {
             let row = frame.picture_row(y);
             for (bx, s) in sums.iter_mut().enumerate() {
-                for x in bx * f..(bx + 1) * f {
+                for (x, &v) in row.iter().enumerate().skip(bx * f).take(f) {
                     let site = (y & 1) * 2 + (x & 1);
                     let c = frame.pattern[site] as usize;
                     let black = frame.black[site];
-                    s[c] += ((row[x] as f32 - black) / (frame.white - black)).max(0.0);
+                    s[c] += ((v as f32 - black) / (frame.white - black)).max(0.0);
                 }
             }
         }

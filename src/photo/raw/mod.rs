@@ -128,7 +128,7 @@ impl RawFrame {
             let c = config.cfa.color_at(y0 + i / 2, x0 + i % 2);
             // Some CFAs name their second green 3; a colour above that is not RGB Bayer.
             *p = match c {
-                0 | 1 | 2 => c as u8,
+                0..=2 => c as u8,
                 3 => 1,
                 _ => return Err(corrupt("its colour filter is not RGB Bayer")),
             };
@@ -142,7 +142,9 @@ impl RawFrame {
             *b = levels[(y * bw + x).min(3)];
         }
         let white = image.whitelevel.as_bayer_array()[0];
-        if !(white > black.iter().cloned().fold(0.0, f32::max) + 16.0) {
+        let floor = black.iter().cloned().fold(0.0, f32::max) + 16.0;
+        // Written so that a NaN white level is refused too.
+        if white.is_nan() || white <= floor {
             return Err(corrupt("its white level is not above its black level"));
         }
         let wb = image.wb_coeffs;
