@@ -11,7 +11,8 @@ use fslcal::calibration::validate::{validate, LengthRule, ValidationJob};
 use fslcal::calibration::Calibration;
 use fslcal::dot::candidates::DotDetectorParams;
 use fslcal::laser::fit::{angle_deg, Gates, Method};
-use fslcal::laser::pipeline::{calibrate, HandDots, LaserJob, TargetArg};
+use fslcal::laser::pipeline::{calibrate, HandDots, LaserJob};
+use fslcal::laser::target::TargetArg;
 use fslcal_core::{LaserLine, Vec3};
 use std::sync::OnceLock;
 
@@ -21,7 +22,7 @@ fn photos() -> &'static SceneSet {
     SET.get_or_init(|| slate_set("slate-murky", fsl_laser(), (0.45, 2.2), 12, 3, Water::Murky, 2))
 }
 
-fn slate_target() -> fslcal::laser::pipeline::Target {
+fn slate_target() -> fslcal::laser::target::Target {
     TargetArg::Slate(example_slate_path()).load().expect("the example slate")
 }
 
@@ -33,7 +34,7 @@ fn slate_poses_match_the_truth_with_inliers_reported() {
     let centre = Vec3::new(0.15, 0.11, 0.0);
     let (mut worst_centre_mm, mut worst_normal_deg, mut least_inliers) = (0.0f64, 0.0f64, usize::MAX);
     for (p, truth) in set.photos.iter().zip(&set.truths) {
-        let located = fslcal::laser::pipeline::locate_target(&target, &tg6_camera(), p)
+        let located = fslcal::laser::target::locate_target(&target, &tg6_camera(), p)
             .expect("right size")
             .unwrap_or_else(|why| panic!("{}: {why}", p.display()));
         let pose = truth.t_cam_target.unwrap();
@@ -56,7 +57,7 @@ fn slate_poses_match_the_truth_with_inliers_reported() {
 #[test]
 fn a_photo_without_the_slate_is_refused_with_the_reason() {
     let set = common::render_set("slate-none", &[common::no_board_spec(5)]);
-    let r = fslcal::laser::pipeline::locate_target(&slate_target(), &tg6_camera(), &set.photos[0]).expect("right size");
+    let r = fslcal::laser::target::locate_target(&slate_target(), &tg6_camera(), &set.photos[0]).expect("right size");
     let why = r.err().expect("no slate in the photo");
     assert!(why.starts_with("no slate found") || why.starts_with("weak slate match"), "{why}");
 }

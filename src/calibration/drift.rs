@@ -13,7 +13,7 @@
 
 use crate::calibration::Calibration;
 use crate::dot::on_line::{find_dot_on_laser_line, LineSearch};
-use crate::laser::pipeline::detected_sigma_px;
+use crate::dot::on_target::detected_sigma_px;
 use crate::vision::EncodedPhoto;
 use fslcal_core::{CameraModel, LaserLine, Vec2, Vec3};
 use nalgebra::{Matrix4, Vector4};

@@ -10,7 +10,8 @@
 use crate::calibration::Calibration;
 use crate::dot::candidates::{DotDetectorParams, SearchRegion};
 use crate::dot::on_line::{laser_image_polyline, DEFAULT_BAND_HALF_WIDTH_PX, DEFAULT_SEARCH_DEPTHS_M};
-use crate::laser::pipeline::{locate_target, LaserError, Target};
+use crate::laser::pipeline::LaserError;
+use crate::laser::target::{locate_target, Target};
 use fslcal_core::{Plane, Vec2, Vec3};
 use rayon::prelude::*;
 use serde::Serialize;

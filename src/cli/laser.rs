@@ -8,9 +8,8 @@ use crate::atomic_file::write_atomically;
 use crate::calibration::camera_json;
 use crate::dot::candidates::DotDetectorParams;
 use crate::laser::fit::{Gates, Method};
-use crate::laser::pipeline::{
-    calibrate, HandDots, LaserCalibration, LaserError, LaserJob, PhotoReport, Target, TargetArg,
-};
+use crate::laser::pipeline::{calibrate, HandDots, LaserCalibration, LaserError, LaserJob, PhotoReport};
+use crate::laser::target::{Target, TargetArg};
 use crate::photo::identity::{photos_exif, PhotosExif};
 use crate::report::{
     self,

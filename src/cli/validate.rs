@@ -5,7 +5,7 @@ use super::progress;
 use crate::calibration;
 use crate::calibration::validate::{validate, LengthRule, Validation, ValidationJob};
 use crate::dot::candidates::DotDetectorParams;
-use crate::laser::pipeline::TargetArg;
+use crate::laser::target::TargetArg;
 use crate::photo::identity::ExpectedCamera;
 use crate::report::{self, validate::ValidationReport};
 use anyhow::{bail, Context};

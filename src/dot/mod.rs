@@ -1,5 +1,7 @@
 //! The laser dot: finding candidate blobs, centring them, and the search policies (on a
-//! target's image, along a calibrated laser's image).
+//! target's image, near a first fit's prediction, along a calibrated laser's image).
 
 pub mod candidates;
+pub mod near_prediction;
 pub mod on_line;
+pub mod on_target;

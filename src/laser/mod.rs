@@ -3,4 +3,8 @@
 
 pub mod fit;
 #[cfg(feature = "vision")]
+pub mod gates;
+#[cfg(feature = "vision")]
 pub mod pipeline;
+#[cfg(feature = "vision")]
+pub mod target;

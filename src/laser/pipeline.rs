@@ -7,22 +7,19 @@
 //! found nothing usable get a second, more sensitive look near where the first fit says the
 //! dot must be, and the fit is repeated.
 
-use crate::dot::candidates::{
-    find_dot_candidates, ChannelOrder, ColourView, DotCandidate, DotDetectorParams, SearchRegion,
-};
+use super::gates::{self, GateResult};
+use super::target::{locate_target, LocatedTarget, Target};
+use crate::dot::candidates::SearchRegion;
+use crate::dot::candidates::{ChannelOrder, ColourView, DotCandidate, DotDetectorParams};
+use crate::dot::near_prediction;
+use crate::dot::on_target::{detected_sigma_px, hand_candidate, HAND_DOT_SIGMA_PX};
 use crate::laser::fit::{self, DotObservation, FitError, Gates, LaserFit, Method};
-use crate::vision::{self, EncodedPhoto, Photo, SlateModel, TargetPose};
-use calib_targets::Checkerboard;
-use fslcal_core::{CameraModel, LaserLine, Plane, Vec2, Vec3};
+use crate::vision::{self, EncodedPhoto, Photo, TargetPose};
+use fslcal_core::{CameraModel, LaserLine, Plane, Vec2};
 use rayon::prelude::*;
 use serde::Serialize;
 use std::collections::HashMap;
 use std::path::{Path, PathBuf};
-use std::sync::Arc;
-
-/// Localisation of a dot clicked by hand, pixels (1 sigma per axis): people click the
-/// visual centre of a blob to about a pixel.
-const HAND_DOT_SIGMA_PX: f64 = 1.0;
 
 /// Where a photo's dot came from.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
@@ -139,15 +136,6 @@ pub struct PhotoReport {
     pub target_inliers: Option<usize>,
 }
 
-/// One gate a careful lab applies, with its figure.
-#[derive(Clone, Debug, Serialize)]
-pub struct GateResult {
-    pub name: &'static str,
-    pub figure: String,
-    pub limit: String,
-    pub pass: bool,
-}
-
 /// Everything `fslcal laser` reports.
 #[derive(Clone, Debug)]
 pub struct LaserCalibration {
@@ -174,206 +162,6 @@ pub enum LaserError {
         source: FitError,
         photos: Vec<PhotoReport>,
     },
-}
-
-/// A target the chain can find and solve the pose of.
-#[derive(Clone)]
-pub enum Target {
-    Checkerboard(Checkerboard),
-    /// A taped slate with its scan's features, shared between threads.
-    Slate(Arc<SlateModel>),
-}
-
-impl Target {
-    /// The dot detector for this target. A slate's texture (tape edges, pencil, light
-    /// patches under a green-blue veil) makes more dot-like blobs than a board's two colours,
-    /// so its candidates must be [`SLATE_SNR_FACTOR`] times as strong; its dots are seen
-    /// closer (0.45 m) than a board's, where murky water's forward scatter makes the halo
-    /// larger than the detector's usual limit.
-    pub fn find_dots(
-        &self,
-        img: &ColourView,
-        region: &SearchRegion,
-        params: &DotDetectorParams,
-        max: usize,
-    ) -> Vec<DotCandidate> {
-        match self {
-            Target::Checkerboard(_) => find_dot_candidates(img, region, params, max),
-            Target::Slate(_) => {
-                let params = DotDetectorParams {
-                    max_area_px: params.max_area_px.max(SLATE_MAX_DOT_AREA_PX),
-                    min_snr: params.min_snr * SLATE_SNR_FACTOR,
-                    ..params.clone()
-                };
-                find_dot_candidates(img, region, &params, max)
-            }
-        }
-    }
-}
-
-/// On a slate, dot candidates need this many times the detector's usual SNR: measured on
-/// the synthetic slate scenes, scenery blobs reach SNR 16 and the dots score 56 or more.
-pub const SLATE_SNR_FACTOR: f64 = 2.5;
-
-/// Largest dot blob on a slate, pixels: a saturated dot at 0.45 m in murky water with its
-/// scattered halo.
-const SLATE_MAX_DOT_AREA_PX: usize = 80_000;
-
-impl From<Checkerboard> for Target {
-    fn from(b: Checkerboard) -> Self {
-        Target::Checkerboard(b)
-    }
-}
-
-impl std::fmt::Debug for Target {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        write!(f, "{self}")
-    }
-}
-
-impl std::fmt::Display for Target {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        match self {
-            Target::Checkerboard(b) => write!(f, "{b}"),
-            Target::Slate(m) => write!(f, "slate:{}", m.slate.definition.display()),
-        }
-    }
-}
-
-/// A target as named on the command line, before a slate's definition is read:
-/// `checkerboard:COLSxROWS@SQUAREmm` or `slate:PATH.toml`.
-#[derive(Clone, Debug, PartialEq)]
-pub enum TargetArg {
-    Checkerboard(Checkerboard),
-    Slate(PathBuf),
-}
-
-impl std::str::FromStr for TargetArg {
-    type Err = String;
-    fn from_str(s: &str) -> Result<Self, String> {
-        match s.trim().split_once(':') {
-            Some(("slate", path)) if !path.trim().is_empty() => Ok(TargetArg::Slate(PathBuf::from(path.trim()))),
-            Some(("slate", _)) => Err("`slate:` needs the slate's definition, e.g. slate:my-slate/slate.toml".into()),
-            _ => s.parse::<Checkerboard>().map(TargetArg::Checkerboard).map_err(|e| format!("{e}, or slate:PATH.toml")),
-        }
-    }
-}
-
-impl TargetArg {
-    /// Reads a slate's definition and its scan's features; a checkerboard needs nothing.
-    pub fn load(&self) -> Result<Target, String> {
-        match self {
-            TargetArg::Checkerboard(b) => Ok(Target::Checkerboard(*b)),
-            TargetArg::Slate(path) => {
-                let slate = calib_targets::Slate::load(path).map_err(|e| e.to_string())?;
-                let model = SlateModel::new(slate, vision::Features::Orb).map_err(|e| e.to_string())?;
-                Ok(Target::Slate(Arc::new(model)))
-            }
-        }
-    }
-}
-
-/// A target found in a photo: its pose, its outline in the image, and the decoded photo.
-pub struct LocatedTarget {
-    pub pose: TargetPose,
-    /// The physical target's outline in the image (padded), pixels.
-    pub outline_px: Vec<Vec2>,
-    pub photo: Photo,
-    /// Reduction factor the target was found at (4 = quarter size).
-    pub found_at_factor: u32,
-    /// Feature inliers of a slate's match (a checkerboard has none).
-    pub inliers: Option<usize>,
-    /// A checkerboard's inner corners as refined, row by row (a slate has none).
-    pub corners_px: Vec<Vec2>,
-}
-
-/// Finds `target` in the photo at `path` and solves its pose. `Ok(Err(reason))` when the
-/// photo cannot be used (the reason omits the file name); `Err` for a photo of the wrong size.
-pub fn locate_target(
-    target: &Target,
-    camera: &CameraModel,
-    path: &Path,
-) -> Result<Result<LocatedTarget, String>, LaserError> {
-    let file = path.display().to_string();
-    let encoded = match EncodedPhoto::read(path) {
-        Ok(e) => e,
-        Err(e) => return Ok(Err(format!("unreadable: {}", strip_path(&e.to_string(), &file)))),
-    };
-    let (w, h) = match encoded.dimensions() {
-        Ok(d) => d,
-        Err(e) => return Ok(Err(format!("unreadable: {}", strip_path(&e.to_string(), &file)))),
-    };
-    if (w, h) != (camera.width_px, camera.height_px) {
-        return Err(LaserError::ImageSize {
-            file,
-            photo_w: w,
-            photo_h: h,
-            camera_w: camera.width_px,
-            camera_h: camera.height_px,
-        });
-    }
-    Ok(match target {
-        Target::Checkerboard(board) => locate_board(board, camera, &encoded, &file),
-        Target::Slate(model) => match vision::find_slate(model, &encoded, camera) {
-            Ok(d) => {
-                let outline = target_outline_px(
-                    camera,
-                    &model.slate.outline_m(),
-                    0.02 * model.slate.width_m.max(model.slate.height_m),
-                    &d.pose,
-                );
-                Ok(LocatedTarget {
-                    pose: d.pose,
-                    outline_px: outline,
-                    photo: d.photo,
-                    found_at_factor: d.found_at_factor,
-                    inliers: Some(d.inliers),
-                    corners_px: Vec::new(),
-                })
-            }
-            Err(e) => Err(strip_path(&e.to_string(), &file)),
-        },
-    })
-}
-
-fn locate_board(
-    board: &Checkerboard,
-    camera: &CameraModel,
-    encoded: &EncodedPhoto,
-    file: &str,
-) -> Result<LocatedTarget, String> {
-    let (cols, rows) = (board.inner_cols, board.inner_rows);
-    let search = match vision::find_checkerboard(encoded, cols, rows) {
-        Ok(Some(s)) => s,
-        Ok(None) => return Err(format!("no {cols}x{rows} checkerboard found (the whole board must be in the frame)")),
-        Err(e) => return Err(strip_path(&e.to_string(), file)),
-    };
-    let photo = encoded.decode_full().map_err(|e| strip_path(&e.to_string(), file))?;
-    let mut corners = search.corners_px;
-    if let Err(e) = vision::refine_corners(&photo, &mut corners, cols, rows) {
-        return Err(format!("corner refinement failed: {}", e.message));
-    }
-    let object: Vec<Vec3> = board.object_points().iter().map(|p| Vec3::new(p[0], p[1], p[2])).collect();
-    let pose = match vision::solve_pose(camera, &object, &corners) {
-        Ok(Some(p)) => p,
-        Ok(None) | Err(_) => return Err("the board's pose could not be solved (check the camera file)".into()),
-    };
-    // A pose whose corners do not reproject is a wrong camera file or a misdetected board.
-    if pose.rms_px > 2.0 {
-        return Err(format!(
-            "the board's corners reproject {:.1} px RMS from their pose (limit 2 px): wrong camera file or a bent board",
-            pose.rms_px
-        ));
-    }
-    let outline = board_outline_px(camera, board, &pose);
-    Ok(LocatedTarget {
-        pose,
-        outline_px: outline,
-        photo,
-        found_at_factor: search.found_at_factor,
-        inliers: None,
-        corners_px: corners,
-    })
 }
 
 /// Settings of one run.
@@ -420,32 +208,6 @@ impl HandDots {
     }
 }
 
-/// Sub-pixel localisation of a detected dot, 1 sigma in pixels: the blob's size over its
-/// signal-to-noise, floored where JPEG and the model's own limits take over.
-pub fn detected_sigma_px(c: &DotCandidate) -> f64 {
-    (c.radius_px / c.snr.max(1.0)).clamp(0.1, 1.5)
-}
-
-/// The board's physical outline projected into the image, padded by half a square so a
-/// dot on the board's edge is still searched.
-fn board_outline_px(camera: &CameraModel, board: &Checkerboard, pose: &TargetPose) -> Vec<Vec2> {
-    target_outline_px(camera, &board.outline_m(), 0.5 * board.square_m, pose)
-}
-
-/// A target's outline (target frame, metres) projected into the image, each corner pushed
-/// `pad_m` outward from the centre.
-fn target_outline_px(camera: &CameraModel, outline: &[[f64; 3]; 4], pad_m: f64, pose: &TargetPose) -> Vec<Vec2> {
-    let centre = outline.iter().fold(Vec3::zeros(), |a, p| a + Vec3::new(p[0], p[1], p[2])) / 4.0;
-    outline
-        .iter()
-        .filter_map(|p| {
-            let p = Vec3::new(p[0], p[1], p[2]);
-            let out = p + (p - centre).normalize() * pad_m;
-            camera.project(&pose.to_camera(&out))
-        })
-        .collect()
-}
-
 /// Stage one for one photo: target, pose, dot candidates.
 pub fn examine_photo(job: &LaserJob, path: &Path) -> Result<PhotoResult, LaserError> {
     let located = match locate_target(&job.target, &job.camera, path)? {
@@ -474,18 +236,6 @@ pub fn examine_photo(job: &LaserJob, path: &Path) -> Result<PhotoResult, LaserEr
     }))
 }
 
-fn hand_candidate(px: Vec2) -> DotCandidate {
-    DotCandidate { pixel: px, snr: f64::INFINITY, peak_green: 0.0, radius_px: 0.0, saturated_core: false }
-}
-
-/// Error texts from the vision module start with the path; the report already names it.
-fn strip_path(message: &str, file: &str) -> String {
-    message
-        .strip_prefix(file)
-        .map(|m| m.trim_start_matches(':').trim().to_string())
-        .unwrap_or_else(|| message.to_string())
-}
-
 fn observation(e: &PhotoEvidence) -> Option<DotObservation> {
     if e.candidates.is_empty() {
         return None;
@@ -497,9 +247,8 @@ fn observation(e: &PhotoEvidence) -> Option<DotObservation> {
     Some(DotObservation { plane: e.pose.plane(), candidates: e.candidates.iter().map(|c| c.pixel).collect(), sigma_px })
 }
 
-/// Second look for a photo whose dot was not found or disagreed with the first fit: a more
-/// sensitive search in a small disc around where the line meets this photo's board. Far,
-/// faint dots in murky water often fall below the first search's threshold.
+/// Second look for a photo whose dot was not found or disagreed with the first fit, near
+/// where `line` meets this photo's target (see [`near_prediction`]).
 fn search_near_prediction(
     job: &LaserJob,
     path: &Path,
@@ -507,39 +256,23 @@ fn search_near_prediction(
     line: &LaserLine,
 ) -> Option<DotCandidate> {
     let predicted = job.camera.project(&line.hit(&evidence.pose.plane())?)?;
-    let radius = (4.0 * job.gates.max_dot_offset_px).max(12.0);
-    let polygon: Vec<Vec2> = (0..8)
-        .map(|k| {
-            let a = k as f64 * std::f64::consts::TAU / 8.0;
-            predicted + Vec2::new(a.cos(), a.sin()) * radius / (std::f64::consts::PI / 8.0).cos()
-        })
-        .collect();
-    let sensitive = job.detector.sensitive();
-    let search = |view: &ColourView, offset: Vec2| {
-        let region = SearchRegion {
-            polygon: polygon.iter().map(|p| p - offset).collect(),
-            band: Some((vec![predicted - offset], radius)),
-        };
-        job.target.find_dots(view, &region, &sensitive, 1).into_iter().next().map(|mut c| {
-            c.pixel += offset;
-            c
-        })
-    };
+    let radius = near_prediction::disc_radius_px(job.gates.max_dot_offset_px);
+    let surface = job.target.surface();
     // The kept board pixels serve when the search disc (plus the background window) lies
     // inside them; otherwise decode the photo again.
     if let Some(crop) = &evidence.board_pixels {
-        let margin = radius + sensitive.background_radius_px as f64;
+        let margin = radius + job.detector.background_radius_px as f64;
         let o = crop.offset();
         let inside = predicted.x - margin >= o.x
             && predicted.y - margin >= o.y
             && predicted.x + margin <= o.x + crop.width as f64
             && predicted.y + margin <= o.y + crop.height as f64;
         if inside {
-            return search(&crop.view(), o);
+            return near_prediction::find_near(surface, &crop.view(), o, predicted, radius, &job.detector);
         }
     }
     let photo: Photo = EncodedPhoto::read(path).ok()?.decode_full().ok()?;
-    search(&photo.colour(), Vec2::zeros())
+    near_prediction::find_near(surface, &photo.colour(), Vec2::zeros(), predicted, radius, &job.detector)
 }
 
 /// Runs the whole chain. `progress` is called once per photo examined.
@@ -613,47 +346,8 @@ pub fn calibrate(
     let photo_reports = report_photos(photos, &results, Some(&fit));
     let present = fit.photos.iter().flatten().count();
     let outliers = (present - fit.used, present);
-    let gates = gate(job, &fit, outliers);
+    let gates = gates::gate(job, &fit, outliers);
     Ok(LaserCalibration { fit, photos: photo_reports, gates, outliers })
-}
-
-fn gate(job: &LaserJob, fit: &LaserFit, outliers: (usize, usize)) -> Vec<GateResult> {
-    let g = &job.gates;
-    let baseline = fit.laser.baseline_m();
-    let worst_used =
-        fit.photos.iter().flatten().filter(|p| p.outlier.is_none()).map(|p| p.residual_px).fold(0.0, f64::max);
-    vec![
-        GateResult {
-            name: "photos used",
-            figure: format!("{}", fit.used),
-            limit: format!(">= {}", g.min_photos),
-            pass: fit.used >= g.min_photos,
-        },
-        GateResult {
-            name: "dot span along the laser",
-            figure: format!("{:.2} m", fit.span_m),
-            limit: format!(">= {:.2} m", g.min_span_m),
-            pass: fit.span_m >= g.min_span_m,
-        },
-        GateResult {
-            name: "camera-to-laser baseline",
-            figure: format!("{:.1} mm", baseline * 1e3),
-            limit: format!("{:.1}-{:.1} mm", g.baseline_range_m.0 * 1e3, g.baseline_range_m.1 * 1e3),
-            pass: (g.baseline_range_m.0..=g.baseline_range_m.1).contains(&baseline),
-        },
-        GateResult {
-            name: "worst used dot off the line",
-            figure: format!("{worst_used:.2} px"),
-            limit: format!("<= {:.1} px", g.max_dot_offset_px),
-            pass: worst_used <= g.max_dot_offset_px,
-        },
-        GateResult {
-            name: "outlier photos",
-            figure: format!("{} of {}", outliers.0, outliers.1),
-            limit: "<= 1/3".to_string(),
-            pass: outliers.0 * 3 <= outliers.1,
-        },
-    ]
 }
 
 fn report_photos(paths: &[PathBuf], results: &[PhotoResult], fit: Option<&LaserFit>) -> Vec<PhotoReport> {

@@ -1,0 +1,227 @@
+//! The targets the laser chain can use (a checkerboard or a taped slate): naming one on
+//! the command line, finding it in a photo, solving its pose `T_cam_target`, and its outline
+//! in the image, which bounds the dot's search.
+
+use crate::dot::candidates::{ColourView, DotCandidate, DotDetectorParams, SearchRegion};
+use crate::dot::on_target::{self, Surface};
+use crate::vision::{self, EncodedPhoto, Photo, SlateModel, TargetPose};
+use calib_targets::Checkerboard;
+use fslcal_core::{CameraModel, Vec2, Vec3};
+use std::path::{Path, PathBuf};
+use std::sync::Arc;
+
+use super::pipeline::LaserError;
+
+/// A target the chain can find and solve the pose of.
+#[derive(Clone)]
+pub enum Target {
+    Checkerboard(Checkerboard),
+    /// A taped slate with its scan's features, shared between threads.
+    Slate(Arc<SlateModel>),
+}
+
+impl Target {
+    /// What the dot search sees this target as.
+    pub fn surface(&self) -> Surface {
+        match self {
+            Target::Checkerboard(_) => Surface::Checkerboard,
+            Target::Slate(_) => Surface::Slate,
+        }
+    }
+
+    /// Dot candidates on this target's image, best first (see [`on_target::find`]).
+    pub fn find_dots(
+        &self,
+        img: &ColourView<'_>,
+        region: &SearchRegion,
+        params: &DotDetectorParams,
+        max: usize,
+    ) -> Vec<DotCandidate> {
+        on_target::find(self.surface(), img, region, params, max)
+    }
+}
+
+impl From<Checkerboard> for Target {
+    fn from(b: Checkerboard) -> Self {
+        Target::Checkerboard(b)
+    }
+}
+
+impl std::fmt::Debug for Target {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "{self}")
+    }
+}
+
+impl std::fmt::Display for Target {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            Target::Checkerboard(b) => write!(f, "{b}"),
+            Target::Slate(m) => write!(f, "slate:{}", m.slate.definition.display()),
+        }
+    }
+}
+
+/// A target as named on the command line, before a slate's definition is read:
+/// `checkerboard:COLSxROWS@SQUAREmm` or `slate:PATH.toml`.
+#[derive(Clone, Debug, PartialEq)]
+pub enum TargetArg {
+    Checkerboard(Checkerboard),
+    Slate(PathBuf),
+}
+
+impl std::str::FromStr for TargetArg {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Self, String> {
+        match s.trim().split_once(':') {
+            Some(("slate", path)) if !path.trim().is_empty() => Ok(TargetArg::Slate(PathBuf::from(path.trim()))),
+            Some(("slate", _)) => Err("`slate:` needs the slate's definition, e.g. slate:my-slate/slate.toml".into()),
+            _ => s.parse::<Checkerboard>().map(TargetArg::Checkerboard).map_err(|e| format!("{e}, or slate:PATH.toml")),
+        }
+    }
+}
+
+impl TargetArg {
+    /// Reads a slate's definition and its scan's features; a checkerboard needs nothing.
+    pub fn load(&self) -> Result<Target, String> {
+        match self {
+            TargetArg::Checkerboard(b) => Ok(Target::Checkerboard(*b)),
+            TargetArg::Slate(path) => {
+                let slate = calib_targets::Slate::load(path).map_err(|e| e.to_string())?;
+                let model = SlateModel::new(slate, vision::Features::Orb).map_err(|e| e.to_string())?;
+                Ok(Target::Slate(Arc::new(model)))
+            }
+        }
+    }
+}
+
+/// A target found in a photo: its pose, its outline in the image, and the decoded photo.
+pub struct LocatedTarget {
+    pub pose: TargetPose,
+    /// The physical target's outline in the image (padded), pixels.
+    pub outline_px: Vec<Vec2>,
+    pub photo: Photo,
+    /// Reduction factor the target was found at (4 = quarter size).
+    pub found_at_factor: u32,
+    /// Feature inliers of a slate's match (a checkerboard has none).
+    pub inliers: Option<usize>,
+    /// A checkerboard's inner corners as refined, row by row (a slate has none).
+    pub corners_px: Vec<Vec2>,
+}
+
+/// Finds `target` in the photo at `path` and solves its pose. `Ok(Err(reason))` when the
+/// photo cannot be used (the reason omits the file name); `Err` for a photo of the wrong size.
+pub fn locate_target(
+    target: &Target,
+    camera: &CameraModel,
+    path: &Path,
+) -> Result<Result<LocatedTarget, String>, LaserError> {
+    let file = path.display().to_string();
+    let encoded = match EncodedPhoto::read(path) {
+        Ok(e) => e,
+        Err(e) => return Ok(Err(format!("unreadable: {}", strip_path(&e.to_string(), &file)))),
+    };
+    let (w, h) = match encoded.dimensions() {
+        Ok(d) => d,
+        Err(e) => return Ok(Err(format!("unreadable: {}", strip_path(&e.to_string(), &file)))),
+    };
+    if (w, h) != (camera.width_px, camera.height_px) {
+        return Err(LaserError::ImageSize {
+            file,
+            photo_w: w,
+            photo_h: h,
+            camera_w: camera.width_px,
+            camera_h: camera.height_px,
+        });
+    }
+    Ok(match target {
+        Target::Checkerboard(board) => locate_board(board, camera, &encoded, &file),
+        Target::Slate(model) => match vision::find_slate(model, &encoded, camera) {
+            Ok(d) => {
+                let outline = target_outline_px(
+                    camera,
+                    &model.slate.outline_m(),
+                    0.02 * model.slate.width_m.max(model.slate.height_m),
+                    &d.pose,
+                );
+                Ok(LocatedTarget {
+                    pose: d.pose,
+                    outline_px: outline,
+                    photo: d.photo,
+                    found_at_factor: d.found_at_factor,
+                    inliers: Some(d.inliers),
+                    corners_px: Vec::new(),
+                })
+            }
+            Err(e) => Err(strip_path(&e.to_string(), &file)),
+        },
+    })
+}
+
+fn locate_board(
+    board: &Checkerboard,
+    camera: &CameraModel,
+    encoded: &EncodedPhoto,
+    file: &str,
+) -> Result<LocatedTarget, String> {
+    let (cols, rows) = (board.inner_cols, board.inner_rows);
+    let search = match vision::find_checkerboard(encoded, cols, rows) {
+        Ok(Some(s)) => s,
+        Ok(None) => return Err(format!("no {cols}x{rows} checkerboard found (the whole board must be in the frame)")),
+        Err(e) => return Err(strip_path(&e.to_string(), file)),
+    };
+    let photo = encoded.decode_full().map_err(|e| strip_path(&e.to_string(), file))?;
+    let mut corners = search.corners_px;
+    if let Err(e) = vision::refine_corners(&photo, &mut corners, cols, rows) {
+        return Err(format!("corner refinement failed: {}", e.message));
+    }
+    let object: Vec<Vec3> = board.object_points().iter().map(|p| Vec3::new(p[0], p[1], p[2])).collect();
+    let pose = match vision::solve_pose(camera, &object, &corners) {
+        Ok(Some(p)) => p,
+        Ok(None) | Err(_) => return Err("the board's pose could not be solved (check the camera file)".into()),
+    };
+    // A pose whose corners do not reproject is a wrong camera file or a misdetected board.
+    if pose.rms_px > 2.0 {
+        return Err(format!(
+            "the board's corners reproject {:.1} px RMS from their pose (limit 2 px): wrong camera file or a bent board",
+            pose.rms_px
+        ));
+    }
+    let outline = board_outline_px(camera, board, &pose);
+    Ok(LocatedTarget {
+        pose,
+        outline_px: outline,
+        photo,
+        found_at_factor: search.found_at_factor,
+        inliers: None,
+        corners_px: corners,
+    })
+}
+
+/// The board's physical outline projected into the image, padded by half a square so a
+/// dot on the board's edge is still searched.
+fn board_outline_px(camera: &CameraModel, board: &Checkerboard, pose: &TargetPose) -> Vec<Vec2> {
+    target_outline_px(camera, &board.outline_m(), 0.5 * board.square_m, pose)
+}
+
+/// A target's outline (target frame, metres) projected into the image, each corner pushed
+/// `pad_m` outward from the centre.
+fn target_outline_px(camera: &CameraModel, outline: &[[f64; 3]; 4], pad_m: f64, pose: &TargetPose) -> Vec<Vec2> {
+    let centre = outline.iter().fold(Vec3::zeros(), |a, p| a + Vec3::new(p[0], p[1], p[2])) / 4.0;
+    outline
+        .iter()
+        .filter_map(|p| {
+            let p = Vec3::new(p[0], p[1], p[2]);
+            let out = p + (p - centre).normalize() * pad_m;
+            camera.project(&pose.to_camera(&out))
+        })
+        .collect()
+}
+
+/// Error texts from the vision module start with the path; the report already names it.
+pub(crate) fn strip_path(message: &str, file: &str) -> String {
+    message
+        .strip_prefix(file)
+        .map(|m| m.trim_start_matches(':').trim().to_string())
+        .unwrap_or_else(|| message.to_string())
+}
