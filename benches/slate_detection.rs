@@ -5,7 +5,7 @@
 //! against the truth, and wall time per photo, single-threaded and with all threads over the
 //! photos. The target is 0.5 s per photo on 2 cores. Asserts nothing about time.
 
-#[path = "../common/mod.rs"]
+#[path = "../tests/common/mod.rs"]
 mod common;
 
 use calib_targets::rig::{fsl_laser, tg6_camera};

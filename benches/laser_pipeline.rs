@@ -3,7 +3,7 @@
 //! time to reject a photo with no board. Targets on a 2-core machine: about 1.2 s for the 16,
 //! under 150 ms for the no-board photo. Prints figures; asserts nothing about time.
 
-#[path = "../common/mod.rs"]
+#[path = "../tests/common/mod.rs"]
 mod common;
 
 use calib_targets::scene::Water;

@@ -3,7 +3,7 @@
 //! headers, masks decoded and their end points found, lengths, summary). Prints photos per
 //! second for the mask path and the label path; asserts nothing about time.
 
-#[path = "../common/mod.rs"]
+#[path = "../tests/common/mod.rs"]
 mod common;
 
 use std::path::Path;
