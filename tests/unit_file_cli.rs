@@ -195,12 +195,11 @@ fn export_writes_pkgs_numpy_reads_with_the_same_numbers() {
     assert_eq!(laser.axis, unit_axis(0.0));
 
     // NumPy, as the lab's tools read them (tarfile + np.load).
-    let Some(py) = python_with_numpy() else {
-        eprintln!(
-            "no Python with NumPy here: checked with fslcal's own .npy reader only (its bytes are golden-tested)"
-        );
-        return;
-    };
+    // Without NumPy this test would check our reader against our writer: fail instead.
+    let py = python_with_numpy().expect(
+        "this test needs python3 with NumPy, which reads the exported .pkg as the lab does: \
+         run `bash .ci/setup` (or `apt-get install python3-numpy`, or `pip install numpy`)",
+    );
     let script = r#"
 import json, sys, tarfile, io
 import numpy as np
@@ -211,7 +210,10 @@ for path in sys.argv[1:]:
             data = t.extractfile(m).read()
             if m.name.endswith(".npy"):
                 a = np.load(io.BytesIO(data))
-                out[m.name] = {"shape": list(a.shape), "dtype": str(a.dtype), "values": a.ravel().tolist()}
+                resaved = io.BytesIO()
+                np.save(resaved, a)
+                out[m.name] = {"shape": list(a.shape), "dtype": str(a.dtype), "values": a.ravel().tolist(),
+                               "same_bytes_as_np_save": resaved.getvalue() == data}
             else:
                 out[m.name] = json.loads(data)
 print(json.dumps(out))
@@ -229,7 +231,11 @@ print(json.dumps(out))
     assert_eq!(values("laser_pos.npy"), LASER_POS);
     assert_eq!(values("laser_axis.npy"), unit_axis(0.0));
     assert_eq!(v["metadata.json"]["calibrated_date"], "2026-06-01 09:30:00+00:00");
-    eprintln!("{py} with NumPy read all four arrays with identical numbers");
+    // The files are what the lab's own `np.save` writes, byte for byte.
+    for name in ["_calibration_matrix.npy", "_distortion_coefficients.npy", "laser_pos.npy", "laser_axis.npy"] {
+        assert_eq!(v[name]["same_bytes_as_np_save"], true, "{name}: not the bytes np.save writes");
+    }
+    eprintln!("{py} with NumPy read all four arrays with identical numbers, in np.save's own bytes");
 }
 
 #[test]

@@ -1,12 +1,14 @@
 #![allow(unsafe_code)] // Reads the host stack pointer and paints the stack: the only way to estimate stack use.
-//! RAM the firmware needs: the size of its whole state, and the stack its deepest paths use,
-//! measured by painting the stack (fill it with a pattern, run the path, find the lowest
-//! byte it overwrote; x86_64 only, where CI runs). See the figures with
+//! An estimate of the RAM the firmware needs, made on the host: the size of its whole state,
+//! and the stack its deepest paths use in the *host's* x86_64 build, measured by painting the
+//! host thread's stack (fill it with a pattern, run the path, find the lowest byte it
+//! overwrote; x86_64 only, where CI runs). See the figures with
 //! `cargo test --release -p firmware-sim --test memory -- --nocapture`.
 //!
-//! The stack figures are for the host's x86_64 code; a Cortex-M4 build has 4-byte pointers
-//! but soft-float f64 and different inlining, so read them as an estimate and keep the
-//! margin the assertions leave.
+//! Nothing here runs on the target. The host's stack is a proxy for the Cortex-M4's: that
+//! build has 4-byte pointers but soft-float f64 and different inlining, so every figure is
+//! an estimate, and the assertions only bound it (16 KiB for each path) rather than hold
+//! it to a tight budget.
 
 #![cfg(target_arch = "x86_64")]
 
@@ -25,8 +27,9 @@ const PAINT_BYTES: usize = 256 * 1024;
 /// use without moving the stack pointer. Added back to every figure, so they err high.
 const RED_ZONE: usize = 128;
 
-/// Peak stack of a call to `f` in bytes, from the caller's stack pointer down.
-fn stack_used<F: Fn() + Send + Sync + 'static>(f: F) -> usize {
+/// Peak host stack of a call to `f` in bytes, from the caller's stack pointer down: the
+/// estimate of the target's.
+fn host_stack_estimate<F: Fn() + Send + Sync + 'static>(f: F) -> usize {
     let g: Box<dyn Fn() + Send + Sync> = Box::new(f);
     std::thread::Builder::new().stack_size(4 * PAINT_BYTES).spawn(move || paint_and_run(&*g)).unwrap().join().unwrap()
 }
@@ -92,22 +95,22 @@ impl DrawTarget for Framebuffer {
 }
 
 #[test]
-fn the_stack_painting_measures_a_known_array() {
-    let used = stack_used(|| uses_an_array_of(4096));
-    println!("probe: a function with an 8 KiB array, its lowest 4 KiB written: {used} bytes");
+fn host_stack_painting_measures_a_known_array() {
+    let used = host_stack_estimate(|| uses_an_array_of(4096));
+    println!("probe (host stack): a function with an 8 KiB array, its lowest 4 KiB written: {used} bytes");
     // The lowest byte written is the array's first, 8 KiB plus a return address and a few
     // saved registers below the caller's stack pointer.
     assert!((8192..8192 + 256).contains(&used), "{used}");
-    let empty = stack_used(|| {});
-    println!("probe: an empty closure: {empty} bytes");
+    let empty = host_stack_estimate(|| {});
+    println!("probe (host stack): an empty closure: {empty} bytes");
     assert!(empty <= RED_ZONE + 64, "{empty}");
 }
 
 #[test]
-fn firmware_state_and_stack_fit_a_cortex_m4() {
+fn firmware_state_and_host_stack_estimate_fit_a_cortex_m4() {
     let state = size_of::<Firmware>();
     println!(
-        "size_of::<Firmware>() = {state} bytes (the whole state: file buffer {} B, calibration {} B)",
+        "size_of::<Firmware>() on the host = {state} bytes (the whole state: file buffer {} B, calibration {} B; the target's layout differs)",
         unit_file::MAX_FILE_BYTES,
         size_of::<firmware_sim::Calibration>()
     );
@@ -116,26 +119,26 @@ fn firmware_state_and_stack_fit_a_cortex_m4() {
     let file = good_file();
     let key = unit_file::public_key(&unit_file::EXAMPLE_SECRET_KEY);
     let f1 = file.clone();
-    let verify = stack_used(move || {
+    let verify = host_stack_estimate(move || {
         black_box(unit_file::verify(black_box(&f1), &[key]).is_ok());
     });
     let f0 = file.clone();
-    let decode = stack_used(move || {
+    let decode = host_stack_estimate(move || {
         black_box(unit_file::SignedUnitFile::decode(black_box(&f0)).is_ok());
     });
     let parsed = unit_file::SignedUnitFile::decode(&file).unwrap();
     let (signed, signer, signature) = (file[..file.len() - 64].to_vec(), parsed.signer, parsed.signature);
-    let ed25519 = stack_used(move || {
+    let ed25519 = host_stack_estimate(move || {
         use ed25519_dalek::{Signature, VerifyingKey};
         let key = VerifyingKey::from_bytes(black_box(&signer)).unwrap();
         black_box(key.verify_strict(black_box(&signed), &Signature::from_bytes(&signature)).is_ok());
     });
     let f2 = file.clone();
-    let open = stack_used(move || {
+    let open = host_stack_estimate(move || {
         black_box(firmware_sim::unit_file::open(black_box(&f2), "FSL-03", trusted()).is_ok());
     });
     let f3 = file.clone();
-    let load = stack_used(move || {
+    let load = host_stack_estimate(move || {
         let mut fw = firmware();
         fw.handle(black_box(Event::LoadFile(&f3)));
         black_box(&fw);
@@ -149,38 +152,42 @@ fn firmware_state_and_stack_fit_a_cortex_m4() {
         std::sync::Mutex::new(fw)
     };
     let fw = loaded();
-    let dot = stack_used(move || {
+    let dot = host_stack_estimate(move || {
         let mut fw = fw.lock().unwrap();
         fw.handle(black_box(Event::Dot { u_px: 1986.0, v_px: 1432.7 }));
     });
     let fw = loaded();
-    let no_fix_dot = stack_used(move || {
+    let no_fix_dot = host_stack_estimate(move || {
         // No fix: the drift monitor searches the beam's image instead.
         fw.lock().unwrap().handle(black_box(Event::Dot { u_px: 2250.0, v_px: 1480.0 }));
     });
     let fw = loaded();
     fw.lock().unwrap().handle(Event::Dot { u_px: 1986.0, v_px: 1432.7 });
     let fb = std::sync::Mutex::new(Box::new(Framebuffer([0; 1024])));
-    let draw = stack_used(move || {
+    let draw = host_stack_estimate(move || {
         screens::draw(&fw.lock().unwrap(), &mut **fb.lock().unwrap()).unwrap();
     });
-    println!("stack, decode only (SignedUnitFile::decode): {decode} bytes");
-    println!("stack, ed25519 verify_strict alone: {ed25519} bytes");
-    println!("stack, decode + verify (fslcal_core::unit_file::verify): {verify} bytes");
-    println!("stack, firmware_sim::unit_file::open (verify + unit check): {open} bytes");
-    println!("stack, Firmware::handle(LoadFile): {load} bytes");
-    println!("stack, Firmware::handle(Dot) with a fix (distance, sigma, drift): {dot} bytes");
-    println!("stack, Firmware::handle(Dot) without a fix (beam-image search): {no_fix_dot} bytes");
-    println!("stack, screens::draw of the live screen into a 1 KiB framebuffer: {draw} bytes");
+    println!("host stack (estimate for the target), decode only (SignedUnitFile::decode): {decode} bytes");
+    println!("host stack (estimate for the target), ed25519 verify_strict alone: {ed25519} bytes");
+    println!("host stack (estimate for the target), decode + verify (fslcal_core::unit_file::verify): {verify} bytes");
+    println!("host stack (estimate for the target), firmware_sim::unit_file::open (verify + unit check): {open} bytes");
+    println!("host stack (estimate for the target), Firmware::handle(LoadFile): {load} bytes");
+    println!(
+        "host stack (estimate for the target), Firmware::handle(Dot) with a fix (distance, sigma, drift): {dot} bytes"
+    );
+    println!("host stack (estimate for the target), Firmware::handle(Dot) without a fix (beam-image search): {no_fix_dot} bytes");
+    println!(
+        "host stack (estimate for the target), screens::draw of the live screen into a 1 KiB framebuffer: {draw} bytes"
+    );
     let deepest = [decode, verify, open, load, dot, no_fix_dot, draw].into_iter().max().unwrap();
     println!(
-        "RAM estimate: state {state} + framebuffer 1024 + deepest stack {deepest} = {} bytes",
+        "RAM estimate from the host build: state {state} + framebuffer 1024 + deepest host stack {deepest} = {} bytes",
         state + 1024 + deepest
     );
     for (what, bytes) in
         [("verify", verify), ("open", open), ("load", load), ("dot", dot), ("no-fix dot", no_fix_dot), ("draw", draw)]
     {
-        assert!(bytes > 256, "{what}: {bytes} bytes is implausibly little: the probe is broken");
-        assert!(bytes < 16 * 1024, "{what}: {bytes} bytes of stack");
+        assert!(bytes > 256, "{what}: {bytes} bytes of host stack is implausibly little: the probe is broken");
+        assert!(bytes < 16 * 1024, "{what}: {bytes} bytes of host stack, the estimate for the target, over 16 KiB");
     }
 }

@@ -6,6 +6,13 @@
 //!
 //! `.npy` is read and written here by hand: a magic, a version, a Python-literal header
 //! (`descr`, `fortran_order`, `shape`) padded to 64 bytes, then the raw array.
+//!
+//! Kept by hand rather than `npyz` or `ndarray-npy`: both write headers NumPy reads but does
+//! not write (`'shape': (2, 2, ), }` from one, a dict without NumPy's trailing `, ` from the
+//! other), where `write_npy` gives NumPy's own bytes (golden-tested below), so an exported
+//! `.pkg` is byte for byte what the lab's `np.save` makes; and both parse the header with
+//! `py_literal` (a pest grammar, big integers) for a dict of three keys, which `read_npy`
+//! reads in a few lines tested against every truncation.
 
 use crate::utc_time;
 use flate2::read::GzDecoder;
