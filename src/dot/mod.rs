@@ -2,6 +2,7 @@
 //! target's image, near a first fit's prediction, along a calibrated laser's image).
 
 pub mod candidates;
+mod centre;
 pub mod near_prediction;
 pub mod on_line;
 pub mod on_target;

@@ -124,27 +124,79 @@ pub fn fish_ends(mask: &Mask) -> Result<FishEnds, FishError> {
     if fish.count() < 50 {
         return Err(FishError::TooSmall { pixels: fish.count() });
     }
+    let cut_by_edge = touches_frame(mask, &fish, (cx0, cy0));
+    let offset = Vec2::new(cx0 as f64, cy0 as f64);
+    let spine = body_spine(&fish, &WorkingCopy::of(&fish))?;
+
+    let bent = spine.bow() > BENT_BOW;
+    let end_a = examine_end(&fish, &spine, false, bent);
+    let end_b = examine_end(&fish, &spine, true, bent);
+    let (tail_is_b, head_call) = tell_ends(&end_a, &end_b);
+    let (head, tail) = if tail_is_b { (&end_a, &end_b) } else { (&end_b, &end_a) };
+    let head_px = head.anterior_px;
+    let (tail_px, tail_point) = match tail.fork {
+        Some((p, depth)) => (p, TailPoint::Fork { depth_px: depth }),
+        None => (tail.exit_px, TailPoint::Tip),
+    };
+    let centre = centreline(&spine, tail_is_b, (head, head_px), (tail, tail_px));
+    let chord_px = (tail_px - head_px).norm();
+    Ok(FishEnds {
+        head_px: head_px + offset,
+        tail_px: tail_px + offset,
+        length_px: if bent { arc_length(&centre).max(chord_px) } else { chord_px },
+        chord_px,
+        bent,
+        head_call,
+        tail_point,
+        cut_by_edge,
+        centreline_px: centre.into_iter().map(|p| p + offset).collect(),
+    })
+}
+
+/// Whether `fish` (cropped from `mask` at `origin`) comes within the edge margin of the frame.
+fn touches_frame(mask: &Mask, fish: &Mask, (cx0, cy0): (usize, usize)) -> bool {
     let margin = (EDGE_MARGIN * mask.width.max(mask.height) as f64).round() as usize;
-    let cut_by_edge = fish.pixels().any(|(x, y)| {
+    fish.pixels().any(|(x, y)| {
         let (x, y) = (x + cx0, y + cy0);
         x <= margin || y <= margin || x + margin >= mask.width - 1 || y + margin >= mask.height - 1
-    });
-    let offset = Vec2::new(cx0 as f64, cy0 as f64);
-    let (x0, y0, x1, y1) = bounding_box(&fish).expect("the fish has pixels");
-    let factor = ((x1 - x0 + 1).max(y1 - y0 + 1)).div_ceil(WORKING_SIZE_PX).max(1);
-    // Crop with a margin of one working pixel of background all round.
-    let (ox, oy) = (x0 as i64 - factor as i64, y0 as i64 - factor as i64);
-    let (cw, ch) = (x1 - x0 + 1 + 2 * factor, y1 - y0 + 1 + 2 * factor);
-    let mut crop = Mask::new(cw, ch);
-    for (x, y) in fish.pixels() {
-        crop.bits[(y as i64 - oy) as usize * cw + (x as i64 - ox) as usize] = true;
+    })
+}
+
+/// The fish reduced by `factor` to about [`WORKING_SIZE_PX`], with one working pixel of
+/// background all round; `(ox, oy)` is its origin in the fish's pixels.
+struct WorkingCopy {
+    work: Mask,
+    factor: usize,
+    ox: i64,
+    oy: i64,
+}
+
+impl WorkingCopy {
+    fn of(fish: &Mask) -> WorkingCopy {
+        let (x0, y0, x1, y1) = bounding_box(fish).expect("the fish has pixels");
+        let factor = ((x1 - x0 + 1).max(y1 - y0 + 1)).div_ceil(WORKING_SIZE_PX).max(1);
+        // Crop with a margin of one working pixel of background all round.
+        let (ox, oy) = (x0 as i64 - factor as i64, y0 as i64 - factor as i64);
+        let (cw, ch) = (x1 - x0 + 1 + 2 * factor, y1 - y0 + 1 + 2 * factor);
+        let mut crop = Mask::new(cw, ch);
+        for (x, y) in fish.pixels() {
+            crop.bits[(y as i64 - oy) as usize * cw + (x as i64 - ox) as usize] = true;
+        }
+        WorkingCopy { work: crop.reduce(factor).largest_component(), factor, ox, oy }
     }
-    let work = crop.reduce(factor).largest_component();
-    let to_full = |i: usize| -> Vec2 {
-        let (x, y) = (i % work.width, i / work.width);
-        let half = (factor as f64 - 1.0) / 2.0;
-        Vec2::new(ox as f64 + (factor * x) as f64 + half, oy as f64 + (factor * y) as f64 + half)
-    };
+
+    /// The fish pixel at the centre of working pixel `i`.
+    fn to_full(&self, i: usize) -> Vec2 {
+        let (x, y) = (i % self.work.width, i / self.work.width);
+        let half = (self.factor as f64 - 1.0) / 2.0;
+        Vec2::new(self.ox as f64 + (self.factor * x) as f64 + half, self.oy as f64 + (self.factor * y) as f64 + half)
+    }
+}
+
+/// The body's spine in the fish's pixels: the body is the working copy opened to strip
+/// fins, and the spine a smooth curve through the medial path between its geodesic extremes.
+fn body_spine(fish: &Mask, working: &WorkingCopy) -> Result<Spine, FishError> {
+    let work = &working.work;
     let clearance = work.distance_to_background();
     let thickest = clearance.iter().cloned().fold(0.0, f64::max);
     let mut body = work.opened(&clearance, (thickest / 3.0).max(1.0)).largest_component();
@@ -158,13 +210,13 @@ pub fn fish_ends(mask: &Mask) -> Result<FishEnds, FishError> {
     if a == b {
         return Err(FishError::TooSmall { pixels: fish.count() });
     }
-    let path: Vec<Vec2> = medial_path(&body, &body_clearance, a, b).into_iter().map(to_full).collect();
-    let spine = Spine::fit(&path);
+    let path: Vec<Vec2> = medial_path(&body, &body_clearance, a, b).into_iter().map(|i| working.to_full(i)).collect();
+    Ok(Spine::fit(&path))
+}
 
-    let bent = spine.bow() > BENT_BOW;
-    let end_a = examine_end(&fish, &spine, false, bent);
-    let end_b = examine_end(&fish, &spine, true, bent);
-    let (tail_is_b, head_call) = match (end_a.flare, end_b.flare, end_a.fork.is_some(), end_b.fork.is_some()) {
+/// Which end is the tail (true: the spine's end `b`) and how that was told.
+fn tell_ends(end_a: &EndLook, end_b: &EndLook) -> (bool, HeadCall) {
+    match (end_a.flare, end_b.flare, end_a.fork.is_some(), end_b.fork.is_some()) {
         (fa, fb, _, _) if fb >= FLARE && fa < FLARE && fb > 1.3 * fa => (true, HeadCall::NarrowPeduncle),
         (fa, fb, _, _) if fa >= FLARE && fb < FLARE && fa > 1.3 * fb => (false, HeadCall::NarrowPeduncle),
         (_, _, false, true) => (true, HeadCall::ForkNotch),
@@ -172,15 +224,18 @@ pub fn fish_ends(mask: &Mask) -> Result<FishEnds, FishError> {
         // Unknown: the end with the deeper valley or the stronger flare is the likelier tail.
         _ => {
             let score = |e: &EndLook| e.fork.map_or(0.0, |f| f.1) + e.flare;
-            (score(&end_b) >= score(&end_a), HeadCall::Unknown)
+            (score(end_b) >= score(end_a), HeadCall::Unknown)
         }
-    };
-    let (head, tail) = if tail_is_b { (&end_a, &end_b) } else { (&end_b, &end_a) };
-    let head_px = head.anterior_px;
-    let (tail_px, tail_point) = match tail.fork {
-        Some((p, depth)) => (p, TailPoint::Fork { depth_px: depth }),
-        None => (tail.exit_px, TailPoint::Tip),
-    };
+    }
+}
+
+/// The centreline from the head point to the tail point: the spine's samples between them.
+fn centreline(
+    spine: &Spine,
+    tail_is_b: bool,
+    (head, head_px): (&EndLook, Vec2),
+    (tail, tail_px): (&EndLook, Vec2),
+) -> Vec<Vec2> {
     let mut centre: Vec<Vec2> = vec![head_px];
     let samples = spine.samples(400);
     let ordered: Vec<Vec2> = if tail_is_b { samples } else { samples.into_iter().rev().collect() };
@@ -190,18 +245,7 @@ pub fn fish_ends(mask: &Mask) -> Result<FishEnds, FishError> {
             .filter(|p| (p - head_px).dot(&head.outward) < 0.0 && (p - tail_px).dot(&tail.outward) < 0.0),
     );
     centre.push(tail_px);
-    let chord_px = (tail_px - head_px).norm();
-    Ok(FishEnds {
-        head_px: head_px + offset,
-        tail_px: tail_px + offset,
-        length_px: if bent { arc_length(&centre).max(chord_px) } else { chord_px },
-        chord_px,
-        bent,
-        head_call,
-        tail_point,
-        cut_by_edge,
-        centreline_px: centre.into_iter().map(|p| p + offset).collect(),
-    })
+    centre
 }
 
 fn bounding_box(m: &Mask) -> Option<(usize, usize, usize, usize)> {
@@ -384,24 +428,9 @@ fn examine_end(fish: &Mask, spine: &Spine, at_end: bool, bent: bool) -> EndLook 
     let across = Vec2::new(-outward.y, outward.x);
     let base = spine.at(t_base);
     let total = spine.length;
-    // Columns across as far as a caudal fin spreads, rows out as far as a head or tail reaches.
-    let reach_px = 0.5 * total;
-    let bins = (2.0 * reach_px).ceil() as usize + 1;
-    let slice_px = (total / 60.0).max(1.0);
-    let mut profile = vec![f64::NEG_INFINITY; bins];
-    let mut widths = vec![0usize; (0.5 * total / slice_px).ceil() as usize + 1];
-    for (x, y) in fish.pixels() {
-        let d = Vec2::new(x as f64, y as f64) - base;
-        let (s, w) = (d.dot(&outward), d.dot(&across));
-        if s < 0.0 || s > 0.5 * total || w.abs() >= reach_px {
-            continue;
-        }
-        let bin = (w + reach_px).round() as usize;
-        profile[bin] = profile[bin].max(s);
-        widths[(s / slice_px) as usize] += 1;
-    }
+    let EndProfiles { reach_px, profile, widths } = EndProfiles::of(fish, base, outward, total);
     let point = |bin: usize| base + outward * profile[bin] + across * (bin as f64 - reach_px);
-    let filled: Vec<usize> = (0..bins).filter(|&b| profile[b].is_finite()).collect();
+    let filled: Vec<usize> = (0..profile.len()).filter(|&b| profile[b].is_finite()).collect();
     if filled.is_empty() {
         let p = spine.at(t_end);
         return EndLook { outward, anterior_px: p, exit_px: p, fork: None, flare: 1.0 };
@@ -423,7 +452,51 @@ fn examine_end(fish: &Mask, spine: &Spine, at_end: bool, bent: bool) -> EndLook 
         }
         _ => point(far),
     };
+    // A fork's bottom lies behind the body, within the caudal fin's spread of the spine.
+    let body_end = (spine.at(t_end) - base).dot(&outward);
+    let (best_k, depth) = deepest_valley(&profile, &filled, reach_px, body_end, total);
+    let fork = (depth >= MIN_FORK_DEPTH * total).then(|| (point(filled[best_k]), depth));
+    EndLook { outward, anterior_px: point(far), exit_px, fork, flare: flare(&widths) }
+}
 
+/// The fish beyond an end's base, along `outward`, out to half its length.
+struct EndProfiles {
+    /// Half-width of the columns across, px.
+    reach_px: f64,
+    /// For each column across (`reach_px` is the spine's), how far out the fish reaches, px;
+    /// minus infinity where it has no pixel.
+    profile: Vec<f64>,
+    /// Pixels of the fish in each slice out (a sixtieth of the length thick).
+    widths: Vec<usize>,
+}
+
+impl EndProfiles {
+    fn of(fish: &Mask, base: Vec2, outward: Vec2, total: f64) -> EndProfiles {
+        let across = Vec2::new(-outward.y, outward.x);
+        // Columns across as far as a caudal fin spreads, rows out as far as a head or tail reaches.
+        let reach_px = 0.5 * total;
+        let bins = (2.0 * reach_px).ceil() as usize + 1;
+        let slice_px = (total / 60.0).max(1.0);
+        let mut profile = vec![f64::NEG_INFINITY; bins];
+        let mut widths = vec![0usize; (0.5 * total / slice_px).ceil() as usize + 1];
+        for (x, y) in fish.pixels() {
+            let d = Vec2::new(x as f64, y as f64) - base;
+            let (s, w) = (d.dot(&outward), d.dot(&across));
+            if s < 0.0 || s > 0.5 * total || w.abs() >= reach_px {
+                continue;
+            }
+            let bin = (w + reach_px).round() as usize;
+            profile[bin] = profile[bin].max(s);
+            widths[(s / slice_px) as usize] += 1;
+        }
+        EndProfiles { reach_px, profile, widths }
+    }
+}
+
+/// The deepest valley of the rear profile behind `body_end` and within the caudal fin's
+/// spread of the spine: its index in `filled` and its depth below the lower of the highest
+/// columns either side, px (`(0, 0.0)` for none).
+fn deepest_valley(profile: &[f64], filled: &[usize], reach_px: f64, body_end: f64, total: f64) -> (usize, f64) {
     // Valleys: each column against the highest column on either side of it.
     let mut left_max = vec![f64::NEG_INFINITY; filled.len()];
     let mut right_max = vec![f64::NEG_INFINITY; filled.len()];
@@ -433,9 +506,7 @@ fn examine_end(fish: &Mask, spine: &Spine, at_end: bool, bent: bool) -> EndLook 
     for k in (0..filled.len() - 1).rev() {
         right_max[k] = right_max[k + 1].max(profile[filled[k + 1]]);
     }
-    // A fork's bottom lies behind the body, within the caudal fin's spread of the spine.
-    let body_end = (spine.at(t_end) - base).dot(&outward);
-    let (best_k, depth) = (0..filled.len())
+    (0..filled.len())
         .filter(|&k| profile[filled[k]] > body_end && (filled[k] as f64 - reach_px).abs() < 0.2 * total)
         .map(|k| (k, left_max[k].min(right_max[k]) - profile[filled[k]]))
         // Deepest; between near ties the one nearer the spine.
@@ -443,15 +514,16 @@ fn examine_end(fish: &Mask, spine: &Spine, at_end: bool, bent: bool) -> EndLook 
             let near = |k: usize| (filled[k] as f64 - reach_px).abs();
             (a.1.round()).total_cmp(&b.1.round()).then_with(|| near(b.0).total_cmp(&near(a.0)))
         })
-        .unwrap_or((0, 0.0));
-    let fork = (depth >= MIN_FORK_DEPTH * total).then(|| (point(filled[best_k]), depth));
+        .unwrap_or((0, 0.0))
+}
 
-    // Width profile: narrowest in the first 60% of the reach, widest behind it.
+/// Width profile: the widest slice behind the narrowest in the first 60% of the reach, over
+/// the narrowest.
+fn flare(widths: &[usize]) -> f64 {
     let last = widths.iter().rposition(|&n| n > 0).unwrap_or(0);
     let first_part = ((last as f64 * 0.6).round() as usize).max(1);
     let (neck, narrowest) =
         widths[..first_part].iter().enumerate().min_by_key(|&(_, &n)| n).map(|(k, &n)| (k, n)).unwrap_or((0, 1));
     let widest_behind = widths[neck..=last].iter().copied().max().unwrap_or(narrowest);
-    let flare = widest_behind as f64 / narrowest.max(1) as f64;
-    EndLook { outward, anterior_px: point(far), exit_px, fork, flare }
+    widest_behind as f64 / narrowest.max(1) as f64
 }

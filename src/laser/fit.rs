@@ -405,56 +405,11 @@ pub fn fit(
         return Err(FitError::TooFewPhotos { usable: present.len(), needed: gates.min_photos });
     }
     // chosen[i] = index of the candidate used for present[i], None = outlier.
-    let (line, chosen): (LaserLine, Vec<Option<usize>>) = match method {
-        Method::Reprojection => {
-            let owned: Vec<DotObservation> = present.iter().map(|(_, o)| (*o).clone()).collect();
-            let (_, mut chosen) = ransac_line(camera, &owned, 3.0 * gates.max_dot_offset_px)
-                .ok_or(FitError::NoConsensus { needed: gates.min_photos })?;
-            let mut line = None;
-            // Refit, re-gate, until the inlier set is stable.
-            for _ in 0..10 {
-                let used: Vec<(&DotObservation, Vec2)> =
-                    present.iter().zip(&chosen).filter_map(|((_, o), c)| c.map(|k| (*o, o.candidates[k]))).collect();
-                if used.len() < gates.min_photos {
-                    return Err(FitError::NoConsensus { needed: gates.min_photos });
-                }
-                let pts: Vec<Vec3> = used.iter().filter_map(|(o, px)| dot_point(camera, &o.plane, *px)).collect();
-                let start = fit_tls(&pts).ok_or(FitError::Degenerate)?;
-                let (p, _) =
-                    refine_reprojection(camera, &used, &line_to_params(&start), 1.5).ok_or(FitError::Degenerate)?;
-                let l = params_to_line(&p);
-                let next: Vec<Option<usize>> = present
-                    .iter()
-                    .map(|(_, o)| {
-                        let q = predicted_px(camera, &l, &o.plane)?;
-                        o.candidates
-                            .iter()
-                            .take(4)
-                            .enumerate()
-                            .map(|(k, c)| (k, (c - q).norm()))
-                            .filter(|(_, e)| *e <= gates.max_dot_offset_px)
-                            .min_by(|a, b| a.1.total_cmp(&b.1))
-                            .map(|(k, _)| k)
-                    })
-                    .collect();
-                line = Some(l);
-                if next == chosen {
-                    break;
-                }
-                chosen = next;
-            }
-            (line.ok_or(FitError::Degenerate)?, chosen)
-        }
-        Method::GaussNewton | Method::Average => {
-            let pts: Vec<Vec3> =
-                present.iter().filter_map(|(_, o)| dot_point(camera, &o.plane, o.candidates[0])).collect();
-            let l = if method == Method::Average { fit_average(&pts) } else { fit_gauss_newton(&pts) };
-            (l.ok_or(FitError::Degenerate)?, vec![Some(0); present.len()])
-        }
+    let (line, chosen) = match method {
+        Method::Reprojection => reprojection_line(camera, &present, gates)?,
+        Method::GaussNewton | Method::Average => thesis_line(camera, &present, method)?,
     };
-
-    let used_obs: Vec<(&DotObservation, Vec2)> =
-        present.iter().zip(&chosen).filter_map(|((_, o), c)| c.map(|k| (*o, o.candidates[k]))).collect();
+    let used_obs = chosen_dots(&present, &chosen);
     let outliers = chosen.iter().filter(|c| c.is_none()).count();
     if used_obs.len() < gates.min_photos {
         return Err(FitError::NoConsensus { needed: gates.min_photos });
@@ -462,16 +417,134 @@ pub fn fit(
     if outliers * 3 > present.len() {
         return Err(FitError::TooManyOutliers { outliers, total: present.len() });
     }
+    let PhotoFigures { photos, along, depths } = photo_figures(camera, obs.len(), &present, &chosen, &line, gates);
+    let span_m =
+        along.iter().copied().fold(f64::NEG_INFINITY, f64::max) - along.iter().copied().fold(f64::INFINITY, f64::min);
+    if span_m < gates.min_span_m {
+        return Err(FitError::TooShortSpan { span_m, min_m: gates.min_span_m });
+    }
+    let residuals = ResidualFigures::of(&photos);
+    let cov = fit_covariance(camera, &used_obs, &line)?;
+    let covariance = [0, 1, 2, 3].map(|a| [0, 1, 2, 3].map(|b| cov[(a, b)]));
+    let distance_sigma_m =
+        [1.0, 3.0, 5.0].iter().map(|&z| (z, distance_sigma(camera, &line, &cov, z).unwrap_or(f64::NAN))).collect();
 
-    // Per-photo figures.
-    let mut photos: Vec<Option<PhotoFit>> = vec![None; obs.len()];
+    Ok(LaserFit {
+        method,
+        laser: line,
+        covariance,
+        photos,
+        used: residuals.used,
+        residual_rms_px: residuals.rms_px,
+        residual_worst_px: residuals.worst_px,
+        residual_rms_mm: residuals.rms_mm,
+        residual_worst_mm: residuals.worst_mm,
+        span_m,
+        depth_range_m: (
+            depths.iter().copied().fold(f64::INFINITY, f64::min),
+            depths.iter().copied().fold(f64::NEG_INFINITY, f64::max),
+        ),
+        distance_sigma_m,
+    })
+}
+
+/// The dots chosen for each present photo, `None` (an outlier) left out.
+fn chosen_dots<'a>(
+    present: &[(usize, &'a DotObservation)],
+    chosen: &[Option<usize>],
+) -> Vec<(&'a DotObservation, Vec2)> {
+    present.iter().zip(chosen).filter_map(|((_, o), c)| c.map(|k| (*o, o.candidates[k]))).collect()
+}
+
+/// The reprojection fit: RANSAC for the start and the candidates, then refit and re-gate
+/// until the inlier set is stable. Returns the line and each photo's chosen candidate.
+fn reprojection_line(
+    camera: &CameraModel,
+    present: &[(usize, &DotObservation)],
+    gates: &Gates,
+) -> Result<(LaserLine, Vec<Option<usize>>), FitError> {
+    let owned: Vec<DotObservation> = present.iter().map(|(_, o)| (*o).clone()).collect();
+    let (_, mut chosen) = ransac_line(camera, &owned, 3.0 * gates.max_dot_offset_px)
+        .ok_or(FitError::NoConsensus { needed: gates.min_photos })?;
+    let mut line = None;
+    for _ in 0..10 {
+        let used = chosen_dots(present, &chosen);
+        if used.len() < gates.min_photos {
+            return Err(FitError::NoConsensus { needed: gates.min_photos });
+        }
+        let pts: Vec<Vec3> = used.iter().filter_map(|(o, px)| dot_point(camera, &o.plane, *px)).collect();
+        let start = fit_tls(&pts).ok_or(FitError::Degenerate)?;
+        let (p, _) = refine_reprojection(camera, &used, &line_to_params(&start), 1.5).ok_or(FitError::Degenerate)?;
+        let l = params_to_line(&p);
+        let next = nearest_candidates(camera, &l, present, gates.max_dot_offset_px);
+        line = Some(l);
+        if next == chosen {
+            break;
+        }
+        chosen = next;
+    }
+    Ok((line.ok_or(FitError::Degenerate)?, chosen))
+}
+
+/// For each photo, the candidate (of its first four) nearest where `line` meets its target,
+/// if within `gate_px`.
+fn nearest_candidates(
+    camera: &CameraModel,
+    line: &LaserLine,
+    present: &[(usize, &DotObservation)],
+    gate_px: f64,
+) -> Vec<Option<usize>> {
+    present
+        .iter()
+        .map(|(_, o)| {
+            let q = predicted_px(camera, line, &o.plane)?;
+            o.candidates
+                .iter()
+                .take(4)
+                .enumerate()
+                .map(|(k, c)| (k, (c - q).norm()))
+                .filter(|(_, e)| *e <= gate_px)
+                .min_by(|a, b| a.1.total_cmp(&b.1))
+                .map(|(k, _)| k)
+        })
+        .collect()
+}
+
+/// The thesis's fits on every photo's first candidate, as given.
+fn thesis_line(
+    camera: &CameraModel,
+    present: &[(usize, &DotObservation)],
+    method: Method,
+) -> Result<(LaserLine, Vec<Option<usize>>), FitError> {
+    let pts: Vec<Vec3> = present.iter().filter_map(|(_, o)| dot_point(camera, &o.plane, o.candidates[0])).collect();
+    let l = if method == Method::Average { fit_average(&pts) } else { fit_gauss_newton(&pts) };
+    Ok((l.ok_or(FitError::Degenerate)?, vec![Some(0); present.len()]))
+}
+
+/// Per-photo figures in photo order, with the used dots' positions along the line and
+/// depths, metres.
+struct PhotoFigures {
+    photos: Vec<Option<PhotoFit>>,
+    along: Vec<f64>,
+    depths: Vec<f64>,
+}
+
+fn photo_figures(
+    camera: &CameraModel,
+    photo_count: usize,
+    present: &[(usize, &DotObservation)],
+    chosen: &[Option<usize>],
+    line: &LaserLine,
+    gates: &Gates,
+) -> PhotoFigures {
+    let mut photos: Vec<Option<PhotoFit>> = vec![None; photo_count];
     let mut along = Vec::new();
     let mut depths = Vec::new();
-    for ((idx, o), c) in present.iter().zip(&chosen) {
+    for ((idx, o), c) in present.iter().zip(chosen) {
         let k = c.unwrap_or(0);
         let px = o.candidates[k];
         let point = dot_point(camera, &o.plane, px).unwrap_or_else(Vec3::zeros);
-        let q = predicted_px(camera, &line, &o.plane);
+        let q = predicted_px(camera, line, &o.plane);
         let residual_px = q.map_or(f64::INFINITY, |q| (q - px).norm());
         let outlier = match c {
             Some(_) => None,
@@ -489,53 +562,53 @@ pub fn fit(
             point_m: [point.x, point.y, point.z],
             distance_m: point.z,
             residual_px,
-            residual_m: distance_point_line(&line, &point),
+            residual_m: distance_point_line(line, &point),
             outlier,
         });
     }
-    let span_m =
-        along.iter().copied().fold(f64::NEG_INFINITY, f64::max) - along.iter().copied().fold(f64::INFINITY, f64::min);
-    if span_m < gates.min_span_m {
-        return Err(FitError::TooShortSpan { span_m, min_m: gates.min_span_m });
-    }
-    let used_fits: Vec<&PhotoFit> = photos.iter().flatten().filter(|p| p.outlier.is_none()).collect();
-    let used = used_fits.len();
-    let n = used as f64;
-    let residual_rms_px = (used_fits.iter().map(|p| p.residual_px.powi(2)).sum::<f64>() / n).sqrt();
-    let residual_worst_px = used_fits.iter().map(|p| p.residual_px).fold(0.0, f64::max);
-    let residual_rms_mm = 1e3 * (used_fits.iter().map(|p| p.residual_m.powi(2)).sum::<f64>() / n).sqrt();
-    let residual_worst_mm = 1e3 * used_fits.iter().map(|p| p.residual_m).fold(0.0, f64::max);
+    PhotoFigures { photos, along, depths }
+}
 
+/// Residuals of the used dots: RMS and worst, in pixels and millimetres.
+struct ResidualFigures {
+    used: usize,
+    rms_px: f64,
+    worst_px: f64,
+    rms_mm: f64,
+    worst_mm: f64,
+}
+
+impl ResidualFigures {
+    fn of(photos: &[Option<PhotoFit>]) -> ResidualFigures {
+        let used_fits: Vec<&PhotoFit> = photos.iter().flatten().filter(|p| p.outlier.is_none()).collect();
+        let used = used_fits.len();
+        let n = used as f64;
+        ResidualFigures {
+            used,
+            rms_px: (used_fits.iter().map(|p| p.residual_px.powi(2)).sum::<f64>() / n).sqrt(),
+            worst_px: used_fits.iter().map(|p| p.residual_px).fold(0.0, f64::max),
+            rms_mm: 1e3 * (used_fits.iter().map(|p| p.residual_m.powi(2)).sum::<f64>() / n).sqrt(),
+            worst_mm: 1e3 * used_fits.iter().map(|p| p.residual_m).fold(0.0, f64::max),
+        }
+    }
+}
+
+/// Covariance of the line's parameters at `line`, from the used dots.
+fn fit_covariance(
+    camera: &CameraModel,
+    used_obs: &[(&DotObservation, Vec2)],
+    line: &LaserLine,
+) -> Result<Matrix4<f64>, FitError> {
     // Covariance from the whitened normal matrix, scaled by the residuals' own variance when
     // they are larger than the stated dot localisation (never smaller: a lucky fit is not a
     // precise one).
-    let p = line_to_params(&line);
-    let j = numeric_jacobian(camera, &used_obs, &p).ok_or(FitError::Degenerate)?;
-    let r = reprojection_residuals(camera, &used_obs, &p).ok_or(FitError::Degenerate)?;
+    let p = line_to_params(line);
+    let j = numeric_jacobian(camera, used_obs, &p).ok_or(FitError::Degenerate)?;
+    let r = reprojection_residuals(camera, used_obs, &p).ok_or(FitError::Degenerate)?;
     let dof = (r.len() as f64 - 4.0).max(1.0);
     let scale = (r.norm_squared() / dof).max(1.0);
     let cov = to4(&(j.transpose() * &j)).try_inverse().ok_or(FitError::Degenerate)? * scale;
-    let covariance = [0, 1, 2, 3].map(|a| [0, 1, 2, 3].map(|b| cov[(a, b)]));
-    let distance_sigma_m =
-        [1.0, 3.0, 5.0].iter().map(|&z| (z, distance_sigma(camera, &line, &cov, z).unwrap_or(f64::NAN))).collect();
-
-    Ok(LaserFit {
-        method,
-        laser: line,
-        covariance,
-        photos,
-        used,
-        residual_rms_px,
-        residual_worst_px,
-        residual_rms_mm,
-        residual_worst_mm,
-        span_m,
-        depth_range_m: (
-            depths.iter().copied().fold(f64::INFINITY, f64::min),
-            depths.iter().copied().fold(f64::NEG_INFINITY, f64::max),
-        ),
-        distance_sigma_m,
-    })
+    Ok(cov)
 }
 
 /// 1-sigma error of the depth read from a dot at true depth `z_m`, from the calibration's

@@ -5,7 +5,13 @@
 //! charts from its own figures and calls [`Chart::svg`].
 
 use super::ReportError;
+use plotters::coord::types::RangedCoordf64;
+use plotters::coord::Shift;
 use plotters::prelude::*;
+use std::ops::Range;
+
+/// A chart's drawing context: f64 axes on an SVG backend.
+type Plot<'a, 'b> = ChartContext<'a, SVGBackend<'b>, Cartesian2d<RangedCoordf64, RangedCoordf64>>;
 
 /// Colours used across reports, so a "used" dot looks the same in every plot.
 pub mod colour {
@@ -183,7 +189,7 @@ impl Chart {
 
     /// The chart as an SVG document.
     pub fn svg(&self) -> Result<String, ReportError> {
-        let err = |e: &dyn std::fmt::Display| ReportError::Plot { name: self.title.clone(), message: e.to_string() };
+        let err = |e: &dyn std::fmt::Display| self.plot_error(e);
         let (auto_x, auto_y) = self.data_extent();
         let (x0, x1) = self.x_range.unwrap_or(auto_x);
         let (y0, y1) = self.y_range.unwrap_or(auto_y);
@@ -194,130 +200,14 @@ impl Chart {
         {
             let root = SVGBackend::with_string(&mut out, self.size_px).into_drawing_area();
             root.fill(&WHITE).map_err(|e| err(&e))?;
-            let mut chart = ChartBuilder::on(&root)
-                .caption(&self.title, ("sans-serif", 16))
-                .margin(8)
-                .x_label_area_size(36)
-                .y_label_area_size(58)
-                .build_cartesian_2d(x0..x1, ya..yb)
-                .map_err(|e| err(&e))?;
-            chart
-                .configure_mesh()
-                .x_desc(&self.x_label)
-                .y_desc(&self.y_label)
-                .x_labels(7)
-                .y_labels(6)
-                .y_label_formatter(&|v| tidy(s * v))
-                .x_label_formatter(&|v| tidy(*v))
-                .light_line_style(RGBColor(235, 235, 235))
-                .draw()
-                .map_err(|e| err(&e))?;
+            let mut chart = self.axes(&root, (x0..x1, ya..yb), s)?;
+            // Areas first, so lines and points are drawn over them.
             let mut legend = false;
             for layer in &self.layers {
-                match layer {
-                    Layer::Band { name, x, lower, upper, colour } => {
-                        let mut poly: Vec<(f64, f64)> = x.iter().zip(upper).map(|(x, y)| (*x, s * y)).collect();
-                        poly.extend(x.iter().zip(lower).rev().map(|(x, y)| (*x, s * y)));
-                        let c = *colour;
-                        let a = chart
-                            .draw_series(std::iter::once(Polygon::new(poly, c.mix(0.25).filled())))
-                            .map_err(|e| err(&e))?;
-                        if !name.is_empty() {
-                            legend = true;
-                            a.label(name).legend(move |(x, y)| {
-                                Rectangle::new([(x, y - 5), (x + 16, y + 5)], c.mix(0.25).filled())
-                            });
-                        }
-                    }
-                    Layer::Bars { name, bars, width, colour } => {
-                        let c = *colour;
-                        let a = chart
-                            .draw_series(bars.iter().map(|(x, y)| {
-                                Rectangle::new([(x - width / 2.0, 0.0), (x + width / 2.0, s * y)], c.filled())
-                            }))
-                            .map_err(|e| err(&e))?;
-                        if !name.is_empty() {
-                            legend = true;
-                            a.label(name)
-                                .legend(move |(x, y)| Rectangle::new([(x, y - 5), (x + 16, y + 5)], c.filled()));
-                        }
-                    }
-                    _ => {}
-                }
+                legend |= self.draw_area(&mut chart, layer, s)?;
             }
             for layer in &self.layers {
-                let (name, c) = match layer {
-                    Layer::Line { name, points, colour, dashed } => {
-                        let pts = points.iter().map(|p| (p.0, s * p.1));
-                        let style = colour.stroke_width(2);
-                        if *dashed {
-                            chart.draw_series(DashedLineSeries::new(pts, 6, 4, style)).map_err(|e| err(&e))?;
-                        } else {
-                            chart.draw_series(LineSeries::new(pts, style)).map_err(|e| err(&e))?;
-                        }
-                        (name, *colour)
-                    }
-                    Layer::HLine { name, y, colour } => {
-                        let style = colour.stroke_width(2);
-                        chart
-                            .draw_series(DashedLineSeries::new([(x0, s * y), (x1, s * y)], 6, 4, style))
-                            .map_err(|e| err(&e))?;
-                        (name, *colour)
-                    }
-                    Layer::Points { name, points, colour, marker } => {
-                        let c = *colour;
-                        match marker {
-                            Marker::Circle => {
-                                chart
-                                    .draw_series(points.iter().map(|p| Circle::new((p.0, s * p.1), 4, c.filled())))
-                                    .map_err(|e| err(&e))?;
-                            }
-                            Marker::Cross => {
-                                chart
-                                    .draw_series(
-                                        points.iter().map(|p| Cross::new((p.0, s * p.1), 5, c.stroke_width(2))),
-                                    )
-                                    .map_err(|e| err(&e))?;
-                            }
-                        }
-                        if !name.is_empty() {
-                            legend = true;
-                            let m = *marker;
-                            chart
-                                .draw_series(std::iter::empty::<Circle<(f64, f64), i32>>())
-                                .map_err(|e| err(&e))?
-                                .label(name)
-                                .legend(move |(x, y)| -> DynElement<'static, SVGBackend, (i32, i32)> {
-                                    match m {
-                                        Marker::Circle => Circle::new((x + 8, y), 4, c.filled()).into_dyn(),
-                                        Marker::Cross => Cross::new((x + 8, y), 5, c.stroke_width(2)).into_dyn(),
-                                    }
-                                });
-                        }
-                        continue;
-                    }
-                    Layer::Arrows { name, segments, colour } => {
-                        let c = *colour;
-                        chart
-                            .draw_series(segments.iter().map(|(a, b)| {
-                                PathElement::new(vec![(a.0, s * a.1), (b.0, s * b.1)], c.stroke_width(1))
-                            }))
-                            .map_err(|e| err(&e))?;
-                        chart
-                            .draw_series(segments.iter().map(|(a, _)| Circle::new((a.0, s * a.1), 1, c.filled())))
-                            .map_err(|e| err(&e))?;
-                        (name, c)
-                    }
-                    Layer::Band { .. } | Layer::Bars { .. } => continue,
-                };
-                if !name.is_empty() {
-                    legend = true;
-                    chart
-                        .draw_series(std::iter::empty::<PathElement<(f64, f64)>>())
-                        .map_err(|e| err(&e))?
-                        .label(name)
-                        .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 16, y)], c.stroke_width(2)));
-                }
+                legend |= self.draw_mark(&mut chart, layer, s, (x0, x1))?;
             }
             if legend {
                 chart
@@ -332,6 +222,160 @@ impl Chart {
             root.present().map_err(|e| err(&e))?;
         }
         Ok(out)
+    }
+
+    fn plot_error(&self, e: &dyn std::fmt::Display) -> ReportError {
+        ReportError::Plot { name: self.title.clone(), message: e.to_string() }
+    }
+
+    /// The title, the axes with their labels, and the grid; `s` is -1 when rows grow down.
+    fn axes<'a, 'b>(
+        &self,
+        root: &'a DrawingArea<SVGBackend<'b>, Shift>,
+        (x_range, y_range): (Range<f64>, Range<f64>),
+        s: f64,
+    ) -> Result<Plot<'a, 'b>, ReportError> {
+        let err = |e: &dyn std::fmt::Display| self.plot_error(e);
+        let mut chart = ChartBuilder::on(root)
+            .caption(&self.title, ("sans-serif", 16))
+            .margin(8)
+            .x_label_area_size(36)
+            .y_label_area_size(58)
+            .build_cartesian_2d(x_range, y_range)
+            .map_err(|e| err(&e))?;
+        chart
+            .configure_mesh()
+            .x_desc(&self.x_label)
+            .y_desc(&self.y_label)
+            .x_labels(7)
+            .y_labels(6)
+            .y_label_formatter(&|v| tidy(s * v))
+            .x_label_formatter(&|v| tidy(*v))
+            .light_line_style(RGBColor(235, 235, 235))
+            .draw()
+            .map_err(|e| err(&e))?;
+        Ok(chart)
+    }
+
+    /// Draws a band or bars layer (others are drawn by [`Chart::draw_mark`]); true when it
+    /// added a legend entry.
+    fn draw_area(&self, chart: &mut Plot, layer: &Layer, s: f64) -> Result<bool, ReportError> {
+        let err = |e: &dyn std::fmt::Display| self.plot_error(e);
+        match layer {
+            Layer::Band { name, x, lower, upper, colour } => {
+                let mut poly: Vec<(f64, f64)> = x.iter().zip(upper).map(|(x, y)| (*x, s * y)).collect();
+                poly.extend(x.iter().zip(lower).rev().map(|(x, y)| (*x, s * y)));
+                let c = *colour;
+                let a = chart
+                    .draw_series(std::iter::once(Polygon::new(poly, c.mix(0.25).filled())))
+                    .map_err(|e| err(&e))?;
+                if !name.is_empty() {
+                    a.label(name)
+                        .legend(move |(x, y)| Rectangle::new([(x, y - 5), (x + 16, y + 5)], c.mix(0.25).filled()));
+                    return Ok(true);
+                }
+            }
+            Layer::Bars { name, bars, width, colour } => {
+                let c = *colour;
+                let a =
+                    chart
+                        .draw_series(bars.iter().map(|(x, y)| {
+                            Rectangle::new([(x - width / 2.0, 0.0), (x + width / 2.0, s * y)], c.filled())
+                        }))
+                        .map_err(|e| err(&e))?;
+                if !name.is_empty() {
+                    a.label(name).legend(move |(x, y)| Rectangle::new([(x, y - 5), (x + 16, y + 5)], c.filled()));
+                    return Ok(true);
+                }
+            }
+            _ => {}
+        }
+        Ok(false)
+    }
+
+    /// Draws a line, limit, points or arrows layer; true when it added a legend entry.
+    fn draw_mark(&self, chart: &mut Plot, layer: &Layer, s: f64, (x0, x1): (f64, f64)) -> Result<bool, ReportError> {
+        let err = |e: &dyn std::fmt::Display| self.plot_error(e);
+        let (name, c) = match layer {
+            Layer::Line { name, points, colour, dashed } => {
+                let pts = points.iter().map(|p| (p.0, s * p.1));
+                let style = colour.stroke_width(2);
+                if *dashed {
+                    chart.draw_series(DashedLineSeries::new(pts, 6, 4, style)).map_err(|e| err(&e))?;
+                } else {
+                    chart.draw_series(LineSeries::new(pts, style)).map_err(|e| err(&e))?;
+                }
+                (name, *colour)
+            }
+            Layer::HLine { name, y, colour } => {
+                let style = colour.stroke_width(2);
+                chart
+                    .draw_series(DashedLineSeries::new([(x0, s * y), (x1, s * y)], 6, 4, style))
+                    .map_err(|e| err(&e))?;
+                (name, *colour)
+            }
+            Layer::Points { name, points, colour, marker } => {
+                return self.draw_points(chart, name, points, *colour, *marker, s);
+            }
+            Layer::Arrows { name, segments, colour } => {
+                let c = *colour;
+                chart
+                    .draw_series(
+                        segments
+                            .iter()
+                            .map(|(a, b)| PathElement::new(vec![(a.0, s * a.1), (b.0, s * b.1)], c.stroke_width(1))),
+                    )
+                    .map_err(|e| err(&e))?;
+                chart
+                    .draw_series(segments.iter().map(|(a, _)| Circle::new((a.0, s * a.1), 1, c.filled())))
+                    .map_err(|e| err(&e))?;
+                (name, c)
+            }
+            Layer::Band { .. } | Layer::Bars { .. } => return Ok(false),
+        };
+        if name.is_empty() {
+            return Ok(false);
+        }
+        chart
+            .draw_series(std::iter::empty::<PathElement<(f64, f64)>>())
+            .map_err(|e| err(&e))?
+            .label(name)
+            .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 16, y)], c.stroke_width(2)));
+        Ok(true)
+    }
+
+    /// Draws a points layer with its marker; true when it added a legend entry.
+    fn draw_points(
+        &self,
+        chart: &mut Plot,
+        name: &str,
+        points: &[(f64, f64)],
+        c: RGBColor,
+        marker: Marker,
+        s: f64,
+    ) -> Result<bool, ReportError> {
+        let err = |e: &dyn std::fmt::Display| self.plot_error(e);
+        match marker {
+            Marker::Circle => {
+                chart
+                    .draw_series(points.iter().map(|p| Circle::new((p.0, s * p.1), 4, c.filled())))
+                    .map_err(|e| err(&e))?;
+            }
+            Marker::Cross => {
+                chart
+                    .draw_series(points.iter().map(|p| Cross::new((p.0, s * p.1), 5, c.stroke_width(2))))
+                    .map_err(|e| err(&e))?;
+            }
+        }
+        if name.is_empty() {
+            return Ok(false);
+        }
+        let legend = chart.draw_series(std::iter::empty::<Circle<(f64, f64), i32>>()).map_err(|e| err(&e))?.label(name);
+        match marker {
+            Marker::Circle => legend.legend(move |(x, y)| Circle::new((x + 8, y), 4, c.filled())),
+            Marker::Cross => legend.legend(move |(x, y)| Cross::new((x + 8, y), 5, c.stroke_width(2))),
+        };
+        Ok(true)
     }
 }
 

@@ -19,6 +19,7 @@ use opencv::core::{
 use opencv::features2d::{BFMatcher, AKAZE, ORB, SIFT};
 use opencv::prelude::*;
 use opencv::{calib3d, imgproc};
+use std::path::Path;
 use std::str::FromStr;
 
 /// Which features to match. SIFT is the default by measurement (see `docs/slate.md` and
@@ -187,7 +188,7 @@ impl SlateModel {
     }
 }
 
-fn imgcodecs_read_grey(path: &std::path::Path) -> Result<Mat, VisionError> {
+fn imgcodecs_read_grey(path: &Path) -> Result<Mat, VisionError> {
     let m = opencv::imgcodecs::imread(&path.display().to_string(), opencv::imgcodecs::IMREAD_GRAYSCALE)
         .map_err(|e| VisionError::cv(path, e))?;
     if m.empty() {
@@ -281,78 +282,22 @@ pub fn find_slate(
     let (coarse_h, found_at_factor) = coarse(model, encoded)?;
     let photo = encoded.decode_full()?;
     let cv = |e: opencv::Error| SlateMiss::Vision(VisionError::cv(encoded.path, e));
-    let (w, h) = (photo.width() as f64, photo.height() as f64);
     let outline: Vec<Vec2> = model.outline_scan_px().iter().filter_map(|p| coarse_h.apply(*p)).collect();
     if outline.len() < 4 {
         return Err(SlateMiss::Implausible("the slate's outline does not map into the photo".into()));
     }
-    // Fine crop: the slate's box, padded, at the factor that brings it near the scan's size.
-    let (minx, maxx) = outline.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |a, p| (a.0.min(p.x), a.1.max(p.x)));
-    let (miny, maxy) = outline.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |a, p| (a.0.min(p.y), a.1.max(p.y)));
-    let pad = 0.04 * (maxx - minx).max(maxy - miny);
-    let (x0, y0) = ((minx - pad).floor().max(0.0), (miny - pad).floor().max(0.0));
-    let (x1, y1) = ((maxx + pad).ceil().min(w), (maxy + pad).ceil().min(h));
-    if x1 - x0 < 32.0 || y1 - y0 < 32.0 {
-        return Err(SlateMiss::Implausible(format!("the slate would be only {:.0}x{:.0} px", x1 - x0, y1 - y0)));
-    }
-    let slate_px = (maxx - minx).max(maxy - miny);
-    let scan_px = model.scan_size.0.max(model.scan_size.1) as f64;
-    let fine_factor = ((slate_px / scan_px).round() as u32).clamp(1, 8);
-    let rect = Rect::new(x0 as i32, y0 as i32, (x1 - x0) as i32, (y1 - y0) as i32);
-    let crop = Mat::roi(photo.grey(), rect).map_err(cv)?;
-    let small = if fine_factor > 1 {
-        let mut s = Mat::default();
-        let size = Size::new(rect.width / fine_factor as i32, rect.height / fine_factor as i32);
-        // Exactly `fine_factor` pixels per reduced pixel, so `to_full` holds.
-        let cropped =
-            Mat::roi(&crop, Rect::new(0, 0, size.width * fine_factor as i32, size.height * fine_factor as i32))
-                .map_err(cv)?;
-        imgproc::resize(&cropped, &mut s, size, 0.0, 0.0, imgproc::INTER_AREA).map_err(cv)?;
-        s
-    } else {
-        crop.try_clone().map_err(cv)?
-    };
-    // Features only on the slate: the mask is its outline in the crop.
-    let origin = Vec2::new(x0, y0);
-    let f = fine_factor as f64;
-    let mut mask =
-        Mat::new_rows_cols_with_default(small.rows(), small.cols(), CV_8UC1, Scalar::all(0.0)).map_err(cv)?;
-    let poly: Vector<Point> = outline
-        .iter()
-        .map(|p| {
-            let q = (p - origin - Vec2::repeat((f - 1.0) / 2.0)) / f;
-            Point::new(q.x.round() as i32, q.y.round() as i32)
-        })
-        .collect();
-    imgproc::fill_convex_poly(&mut mask, &poly, Scalar::all(255.0), imgproc::LINE_8, 0).map_err(cv)?;
-    let set = detect(model.features, &small, &mask).map_err(cv)?;
+    let crop = FineCrop::cut(model, &photo, &outline, encoded.path)?;
+    let mask = crop.slate_mask(&outline).map_err(cv)?;
+    let set = detect(model.features, &crop.small, &mask).map_err(cv)?;
     let matches = ratio_matches(model.features, &model.scan, &set).map_err(cv)?;
-    // Guided: a match must land near where the coarse homography puts its scan point.
-    let near = 6.0 * found_at_factor as f64;
-    let pairs: Vec<(Vec2, Vec2)> = matches
-        .iter()
-        .filter_map(|&(s, p)| {
-            let scan = model.scan.points_px[s];
-            let img = to_full(set.points_px[p], fine_factor, origin);
-            ((coarse_h.apply(scan)? - img).norm() <= near).then_some((scan, img))
-        })
-        .collect();
-    let src: Vec<Vec2> = pairs.iter().map(|p| p.0).collect();
-    let dst: Vec<Vec2> = pairs.iter().map(|p| p.1).collect();
+    let (src, dst) = guided_pairs(model, &set, &matches, &coarse_h, &crop, found_at_factor);
+    let f = crop.factor as f64;
     let (_, inliers) = ransac_homography(&src, &dst, 2.0 * f).map_err(cv)?.unwrap_or((coarse_h, Vec::new()));
     if inliers.len() < MIN_INLIERS {
         return Err(SlateMiss::Weak { inliers: inliers.len(), matches: matches.len(), needed: MIN_INLIERS });
     }
     let hull: Vec<Vec2> = inliers.iter().map(|&i| src[i]).collect();
-    let share = convex_hull_area(&hull) / (model.scan_size.0 as f64 * model.scan_size.1 as f64);
-    if share < MIN_HULL_SHARE {
-        return Err(SlateMiss::Implausible(format!(
-            "the {} inliers cover only {:.0}% of the slate (need {:.0}%): the pose would hang on one corner",
-            inliers.len(),
-            100.0 * share,
-            100.0 * MIN_HULL_SHARE
-        )));
-    }
+    check_coverage(model, &hull)?;
     let object: Vec<Vec3> = inliers.iter().map(|&i| model.scan_point_m(src[i])).collect();
     let image: Vec<Vec2> = inliers.iter().map(|&i| dst[i]).collect();
     let pose = match solve_pose(camera, &object, &image) {
@@ -360,7 +305,110 @@ pub fn find_slate(
         Ok(None) | Err(_) => return Err(SlateMiss::Implausible("PnP found no pose in front of the camera".into())),
     };
     check_pose(&pose, model, f)?;
-    Ok(SlateDetection { pose, matches: matches.len(), inliers: inliers.len(), found_at_factor, fine_factor, photo })
+    Ok(SlateDetection {
+        pose,
+        matches: matches.len(),
+        inliers: inliers.len(),
+        found_at_factor,
+        fine_factor: crop.factor,
+        photo,
+    })
+}
+
+/// The fine stage's image: the slate's box cut from the full-resolution photo and reduced
+/// by `factor`; `origin` is the box's corner in full-resolution pixels.
+struct FineCrop {
+    small: Mat,
+    origin: Vec2,
+    factor: u32,
+}
+
+impl FineCrop {
+    /// The slate's box (from its `outline` in the photo), padded, at the factor that brings
+    /// the slate near the scan's size.
+    fn cut(model: &SlateModel, photo: &Photo, outline: &[Vec2], path: &Path) -> Result<FineCrop, SlateMiss> {
+        let cv = |e: opencv::Error| SlateMiss::Vision(VisionError::cv(path, e));
+        let (w, h) = (photo.width() as f64, photo.height() as f64);
+        let (minx, maxx) = outline.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |a, p| (a.0.min(p.x), a.1.max(p.x)));
+        let (miny, maxy) = outline.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |a, p| (a.0.min(p.y), a.1.max(p.y)));
+        let pad = 0.04 * (maxx - minx).max(maxy - miny);
+        let (x0, y0) = ((minx - pad).floor().max(0.0), (miny - pad).floor().max(0.0));
+        let (x1, y1) = ((maxx + pad).ceil().min(w), (maxy + pad).ceil().min(h));
+        if x1 - x0 < 32.0 || y1 - y0 < 32.0 {
+            return Err(SlateMiss::Implausible(format!("the slate would be only {:.0}x{:.0} px", x1 - x0, y1 - y0)));
+        }
+        let slate_px = (maxx - minx).max(maxy - miny);
+        let scan_px = model.scan_size.0.max(model.scan_size.1) as f64;
+        let factor = ((slate_px / scan_px).round() as u32).clamp(1, 8);
+        let rect = Rect::new(x0 as i32, y0 as i32, (x1 - x0) as i32, (y1 - y0) as i32);
+        let crop = Mat::roi(photo.grey(), rect).map_err(cv)?;
+        let small = if factor > 1 {
+            let mut s = Mat::default();
+            let size = Size::new(rect.width / factor as i32, rect.height / factor as i32);
+            // Exactly `factor` pixels per reduced pixel, so `to_full` holds.
+            let cropped = Mat::roi(&crop, Rect::new(0, 0, size.width * factor as i32, size.height * factor as i32))
+                .map_err(cv)?;
+            imgproc::resize(&cropped, &mut s, size, 0.0, 0.0, imgproc::INTER_AREA).map_err(cv)?;
+            s
+        } else {
+            crop.try_clone().map_err(cv)?
+        };
+        Ok(FineCrop { small, origin: Vec2::new(x0, y0), factor })
+    }
+
+    /// Features only on the slate: a mask of its `outline` (full-resolution pixels) in the crop.
+    fn slate_mask(&self, outline: &[Vec2]) -> opencv::Result<Mat> {
+        let f = self.factor as f64;
+        let mut mask =
+            Mat::new_rows_cols_with_default(self.small.rows(), self.small.cols(), CV_8UC1, Scalar::all(0.0))?;
+        let poly: Vector<Point> = outline
+            .iter()
+            .map(|p| {
+                let q = (p - self.origin - Vec2::repeat((f - 1.0) / 2.0)) / f;
+                Point::new(q.x.round() as i32, q.y.round() as i32)
+            })
+            .collect();
+        imgproc::fill_convex_poly(&mut mask, &poly, Scalar::all(255.0), imgproc::LINE_8, 0)?;
+        Ok(mask)
+    }
+}
+
+/// The fine stage's matches as (scan px, full-resolution photo px) pairs, guided: a match
+/// must land near where the coarse homography puts its scan point.
+fn guided_pairs(
+    model: &SlateModel,
+    set: &FeatureSet,
+    matches: &[(usize, usize)],
+    coarse_h: &Homography,
+    crop: &FineCrop,
+    found_at_factor: u32,
+) -> (Vec<Vec2>, Vec<Vec2>) {
+    let near = 6.0 * found_at_factor as f64;
+    let pairs: Vec<(Vec2, Vec2)> = matches
+        .iter()
+        .filter_map(|&(s, p)| {
+            let scan = model.scan.points_px[s];
+            let img = to_full(set.points_px[p], crop.factor, crop.origin);
+            ((coarse_h.apply(scan)? - img).norm() <= near).then_some((scan, img))
+        })
+        .collect();
+    let src: Vec<Vec2> = pairs.iter().map(|p| p.0).collect();
+    let dst: Vec<Vec2> = pairs.iter().map(|p| p.1).collect();
+    (src, dst)
+}
+
+/// Refuses inliers (scan pixels) that cover too little of the slate to hold a pose.
+fn check_coverage(model: &SlateModel, inliers_scan_px: &[Vec2]) -> Result<(), SlateMiss> {
+    let share = convex_hull_area(inliers_scan_px) / (model.scan_size.0 as f64 * model.scan_size.1 as f64);
+    if share < MIN_HULL_SHARE {
+        return Err(SlateMiss::Implausible(format!(
+            "the {} inliers cover only {:.0}% of the slate (need {:.0}%): the pose would hang on one corner",
+            inliers_scan_px.len(),
+            100.0 * share,
+            100.0 * MIN_HULL_SHARE
+        )));
+    }
+    Ok(())
 }
 
 fn check_pose(pose: &TargetPose, model: &SlateModel, fine_factor: f64) -> Result<(), SlateMiss> {

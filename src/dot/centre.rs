@@ -1,0 +1,283 @@
+//! Centring a dot blob to sub-pixel: its weighted centroid on the detector's maps, then a
+//! re-centring on the photo against a background model that a checkerboard cannot bias.
+
+use super::candidates::{BlobBox, ColourView, RoiMaps, CLIPPED};
+use fslcal_core::Vec2;
+
+/// Intensity-weighted centroid of blob `id` in ROI pixels (its clipped core weighted at
+/// `peak`), over its box grown by two pixels so the weights fall off symmetrically.
+pub(super) fn weighted_centre(maps: &RoiMaps, id: u32, (mnx, mxx, mny, mxy): BlobBox, peak: f32) -> (f64, f64) {
+    let (w, h) = (maps.roi.w, maps.roi.h);
+    let (excess, saturated, label) = (&maps.excess, &maps.saturated, &maps.label);
+    let grow = 2;
+    let (ax, bx) = (mnx.saturating_sub(grow), (mxx + grow + 1).min(w));
+    let (ay, by) = (mny.saturating_sub(grow), (mxy + grow + 1).min(h));
+    // Subtract a floor so background noise around the blob adds no pull toward the box
+    // centre, but keep the halo's tails that lie above it.
+    let floor = 0.25 * maps.threshold;
+    let (mut sw, mut sx, mut sy) = (0f64, 0f64, 0f64);
+    for y in ay..by {
+        for x in ax..bx {
+            let i = y * w + x;
+            let wt = if saturated[i] && (label[i] == id) { peak - floor } else { excess[i] - floor };
+            if wt > 0.0 && (label[i] == id || label[i] == 0) {
+                sw += wt as f64;
+                sx += wt as f64 * x as f64;
+                sy += wt as f64 * y as f64;
+            }
+        }
+    }
+    if sw <= 0.0 {
+        return (0.5 * (mnx + mxx) as f64, 0.5 * (mny + mxy) as f64);
+    }
+    (sx / sw, sy / sw)
+}
+
+/// Re-centres a dot against a background model that the checkerboard cannot bias.
+///
+/// Under water, the board's colour in each channel is an affine function of its albedo
+/// (attenuated light plus backscatter veil), so across black and white squares green is an
+/// affine function of blue: `G = a + b B`. Fitted on a ring around the dot, that model
+/// predicts the background under the dot even where the dot straddles a square's edge,
+/// which a local mean cannot (it pulls the centre toward the white square by up to a
+/// pixel). The laser adds much more green than blue, so `G - (a + b B)` is the dot alone.
+/// The centroid is taken over a disc centred on the current estimate, three times, so the
+/// window is symmetric about the answer.
+pub(super) fn refine_centre(img: &ColourView, rough: Vec2, blob_radius_px: f64) -> Option<Vec2> {
+    let r_in = blob_radius_px * 1.6 + 3.0;
+    let ring = (r_in + 2.0, r_in + 6.0);
+    let mut c = rough;
+    for _ in 0..3 {
+        let window = Window::around(img, c, ring.1)?;
+        let background = Background::fit(img, &window, c, ring)?;
+        let disc = DiscSignal::sum(img, &window, c, r_in, &background);
+        let next = if disc.saturated.is_empty() {
+            // A faint dot (nothing clipped) is found better by a matched filter than by a
+            // thresholded centroid, whose few surviving pixels are at the noise's mercy.
+            matched_filter_peak(img, c, r_in, blob_radius_px, &|g, b| background.residual(g, b))?
+        } else {
+            disc.centroid_with_core(background.floor)?
+        };
+        let moved = (next - c).norm();
+        c = next;
+        if moved > r_in {
+            return None;
+        }
+        if moved < 1e-3 {
+            break;
+        }
+    }
+    Some(c)
+}
+
+/// The pixel square (inclusive bounds) that holds the disc of `radius` around `c`.
+struct Window {
+    x0: i64,
+    x1: i64,
+    y0: i64,
+    y1: i64,
+}
+
+impl Window {
+    /// `None` when the square leaves the image.
+    fn around(img: &ColourView, c: Vec2, radius: f64) -> Option<Window> {
+        let x0 = (c.x - radius).floor() as i64;
+        let x1 = (c.x + radius).ceil() as i64;
+        let y0 = (c.y - radius).floor() as i64;
+        let y1 = (c.y + radius).ceil() as i64;
+        if x0 < 0 || y0 < 0 || x1 >= img.width as i64 || y1 >= img.height as i64 {
+            return None;
+        }
+        Some(Window { x0, x1, y0, y1 })
+    }
+
+    /// Each pixel of the window with its distance from `c`, row by row.
+    fn pixels(&self, c: Vec2) -> impl Iterator<Item = (i64, i64, f64)> + '_ {
+        (self.y0..=self.y1).flat_map(move |y| {
+            (self.x0..=self.x1).map(move |x| (x, y, ((x as f64 - c.x).powi(2) + (y as f64 - c.y).powi(2)).sqrt()))
+        })
+    }
+}
+
+/// The background model `G = offset + slope B` fitted on a ring, and a noise floor: twice
+/// the RMS of the ring's residuals.
+struct Background {
+    offset: f64,
+    slope: f64,
+    floor: f64,
+}
+
+impl Background {
+    /// Least squares on the ring `ring.0..=ring.1` px from `c` (unsaturated pixels only);
+    /// `None` for fewer than 12 of them.
+    fn fit(img: &ColourView, window: &Window, c: Vec2, (ring_a, ring_b): (f64, f64)) -> Option<Background> {
+        let (mut n, mut sb, mut sg, mut sbb, mut sbg) = (0f64, 0f64, 0f64, 0f64, 0f64);
+        for (x, y, d) in window.pixels(c) {
+            if d < ring_a || d > ring_b {
+                continue;
+            }
+            let (_, g, b) = img.rgb(x as usize, y as usize);
+            if g >= CLIPPED || b >= CLIPPED {
+                continue;
+            }
+            let (g, b) = (g as f64, b as f64);
+            n += 1.0;
+            sb += b;
+            sg += g;
+            sbb += b * b;
+            sbg += b * g;
+        }
+        if n < 12.0 {
+            return None;
+        }
+        let var_b = sbb / n - (sb / n).powi(2);
+        // A uniform ring gives no slope: fall back to a constant background.
+        let slope = if var_b > 4.0 { ((sbg / n - sb / n * sg / n) / var_b).clamp(0.0, 3.0) } else { 0.0 };
+        let offset = sg / n - slope * sb / n;
+        let mut model = Background { offset, slope, floor: 0.0 };
+        let mut ss = 0.0;
+        for (x, y, d) in window.pixels(c) {
+            if d >= ring_a && d <= ring_b {
+                let (_, g, b) = img.rgb(x as usize, y as usize);
+                ss += model.residual(g as f64, b as f64).powi(2);
+            }
+        }
+        model.floor = 2.0 * (ss / n).sqrt();
+        Some(model)
+    }
+
+    /// The dot's signal: green above what the background model predicts from blue.
+    fn residual(&self, g: f64, b: f64) -> f64 {
+        g - (self.offset + self.slope * b)
+    }
+}
+
+/// The dot's signal over the disc of `r_in` around the current centre.
+struct DiscSignal {
+    /// Largest unclipped residual.
+    peak: f64,
+    /// Sums of weight, weight x and weight y over unclipped pixels above the floor.
+    acc: (f64, f64, f64),
+    /// Pixels with clipped green.
+    saturated: Vec<(f64, f64)>,
+}
+
+impl DiscSignal {
+    fn sum(img: &ColourView, window: &Window, c: Vec2, r_in: f64, background: &Background) -> DiscSignal {
+        let mut disc = DiscSignal { peak: 0f64, acc: (0f64, 0f64, 0f64), saturated: Vec::new() };
+        for (x, y, d) in window.pixels(c) {
+            if d > r_in {
+                continue;
+            }
+            let (_, g, b) = img.rgb(x as usize, y as usize);
+            if g >= CLIPPED {
+                disc.saturated.push((x as f64, y as f64));
+                continue;
+            }
+            let e = background.residual(g as f64, b as f64);
+            disc.peak = disc.peak.max(e);
+            let w = e - background.floor;
+            if w > 0.0 {
+                let acc = disc.acc;
+                disc.acc = (acc.0 + w, acc.1 + w * x as f64, acc.2 + w * y as f64);
+            }
+        }
+        disc
+    }
+
+    /// The centroid with the clipped core weighted at least the brightest unclipped level.
+    fn centroid_with_core(self, floor: f64) -> Option<Vec2> {
+        let core_w = (self.peak - floor).max(1.0);
+        let mut acc = self.acc;
+        for (x, y) in self.saturated {
+            acc = (acc.0 + core_w, acc.1 + core_w * x, acc.2 + core_w * y);
+        }
+        if acc.0 <= 0.0 {
+            return None;
+        }
+        Some(Vec2::new(acc.1 / acc.0, acc.2 / acc.0))
+    }
+}
+
+/// Location of the peak of the dot signal `signal(G, B)` smoothed by a Gaussian the size of
+/// the dot, within `reach` of `c`, to sub-pixel by a quadratic through the peak's
+/// neighbours. For a known spot shape in white noise this is the maximum-likelihood centre.
+fn matched_filter_peak(
+    img: &ColourView,
+    c: Vec2,
+    reach: f64,
+    blob_radius_px: f64,
+    signal: &dyn Fn(f64, f64) -> f64,
+) -> Option<Vec2> {
+    let sigma = (0.7 * blob_radius_px).clamp(1.0, 4.0);
+    let k = (3.0 * sigma).ceil() as i64;
+    let half = reach.ceil() as i64 + k + 1;
+    let (cx, cy) = (c.x.round() as i64, c.y.round() as i64);
+    if cx - half < 0 || cy - half < 0 || cx + half >= img.width as i64 || cy + half >= img.height as i64 {
+        return None;
+    }
+    let n = (2 * half + 1) as usize;
+    let mut e = vec![0f64; n * n];
+    for y in 0..n {
+        for x in 0..n {
+            let (_, g, b) = img.rgb((cx - half) as usize + x, (cy - half) as usize + y);
+            e[y * n + x] = signal(g as f64, b as f64);
+        }
+    }
+    let kernel: Vec<f64> = (-k..=k).map(|i| (-0.5 * (i as f64 / sigma).powi(2)).exp()).collect();
+    let f = gaussian_pass(&gaussian_pass(&e, n, &kernel, true), n, &kernel, false);
+    let (bx, by, ox, oy) = sub_pixel_peak(&f, n, half, reach);
+    Some(Vec2::new((cx + bx) as f64 + ox, (cy + by) as f64 + oy))
+}
+
+/// One pass of a separable filter with an odd `kernel` over the square `n x n` image `data`,
+/// along rows (`horizontal`) or columns; outside the square counts as nothing.
+fn gaussian_pass(data: &[f64], n: usize, kernel: &[f64], horizontal: bool) -> Vec<f64> {
+    let k = (kernel.len() / 2) as i64;
+    let mut out = vec![0f64; n * n];
+    for y in 0..n {
+        for x in 0..n {
+            let mut acc = 0.0;
+            for (t, w) in kernel.iter().enumerate() {
+                let o = t as i64 - k;
+                let (xx, yy) = if horizontal { (x as i64 + o, y as i64) } else { (x as i64, y as i64 + o) };
+                if xx >= 0 && yy >= 0 && (xx as usize) < n && (yy as usize) < n {
+                    acc += w * data[yy as usize * n + xx as usize];
+                }
+            }
+            out[y * n + x] = acc;
+        }
+    }
+    out
+}
+
+/// The largest value of the square `n x n` image `f` within `reach` of its centre `(half,
+/// half)`: its offset from the centre in whole pixels and the sub-pixel vertex of a
+/// quadratic through its neighbours, per axis.
+fn sub_pixel_peak(f: &[f64], n: usize, half: i64, reach: f64) -> (i64, i64, f64, f64) {
+    let at = |dx: i64, dy: i64| f[((half + dy) as usize) * n + (half + dx) as usize];
+    let lim = reach.ceil() as i64;
+    let (mut best, mut bx, mut by) = (f64::NEG_INFINITY, 0i64, 0i64);
+    for dy in -lim..=lim {
+        for dx in -lim..=lim {
+            if (dx * dx + dy * dy) as f64 > reach * reach {
+                continue;
+            }
+            let v = at(dx, dy);
+            if v > best {
+                (best, bx, by) = (v, dx, dy);
+            }
+        }
+    }
+    let vertex = |m: f64, z: f64, p: f64| {
+        let d = m - 2.0 * z + p;
+        if d < 0.0 {
+            (0.5 * (m - p) / d).clamp(-0.5, 0.5)
+        } else {
+            0.0
+        }
+    };
+    let ox = vertex(at(bx - 1, by), best, at(bx + 1, by));
+    let oy = vertex(at(bx, by - 1), best, at(bx, by + 1));
+    (bx, by, ox, oy)
+}
