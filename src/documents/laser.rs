@@ -3,9 +3,11 @@
 //!
 //! Reading needs only `camera` and `laser`'s `origin_m`, `direction` and `covariance`: a
 //! calibration written before `schema_version` existed (version 1), or put together by
-//! hand from another tool's numbers, is still a calibration.
+//! hand from another tool's numbers, is still a calibration. The fit's report (method,
+//! outliers, gates, photos, EXIF) reads as absent where it does not parse: its vocabulary
+//! (gate names, statuses) may grow, and an old file is a user's calibration all the same.
 
-use super::{schema_version_1, CameraJson, XOfN};
+use super::{report_part, schema_version_1, CameraJson, XOfN};
 use crate::laser::fit::Method;
 use crate::laser::outcome::{GateResult, PhotoReport};
 use crate::photo::exif::PhotoExif;
@@ -44,6 +46,7 @@ pub struct LaserDocument {
     pub camera: CameraJson,
     /// The target as given (`checkerboard:14x10@42.17mm`, `slate:PATH.toml`).
     pub target: Option<String>,
+    #[serde(default, deserialize_with = "report_part")]
     pub method: Option<Method>,
     pub laser: LaserLineJson,
     /// The used dots' offsets from the fitted line's image: RMS and worst, pixels.
@@ -61,12 +64,13 @@ pub struct LaserDocument {
     #[serde(default)]
     pub predicted_distance_sigma_m: BTreeMap<String, f64>,
     /// Photos whose dot disagreed with the line, of the photos with a dot.
+    #[serde(default, deserialize_with = "report_part")]
     pub outliers: Option<XOfN>,
-    #[serde(default)]
+    #[serde(default, deserialize_with = "report_part")]
     pub gates: Vec<GateResult>,
     /// Every gate passed.
     pub accepted: Option<bool>,
-    #[serde(default)]
+    #[serde(default, deserialize_with = "report_part")]
     pub photos: Vec<PhotoReport>,
     /// The camera body serial the photos agree on (EXIF), so `--cal` users can refuse
     /// another body's photos.
@@ -74,7 +78,7 @@ pub struct LaserDocument {
     /// The focal length the photos agree on (EXIF), millimetres: another means the zoom.
     pub focal_length_mm: Option<f64>,
     /// Each photo's EXIF, in the order of `photos`; `null` for a photo without EXIF.
-    #[serde(default)]
+    #[serde(default, deserialize_with = "report_part")]
     pub photo_exif: Vec<Option<PhotoExif>>,
     /// `FSL-NN`: never written by `fslcal laser`, read when a hand-made file names its unit.
     #[serde(default, skip_serializing_if = "Option::is_none")]
@@ -125,5 +129,17 @@ mod tests {
         again.as_object_mut().unwrap().remove("schema_version");
         let before: serde_json::Value = serde_json::from_str(BEFORE_SCHEMA_VERSION).unwrap();
         assert_eq!(again, before);
+    }
+
+    #[test]
+    fn a_report_in_words_this_build_does_not_know_still_reads_as_a_calibration() {
+        let mut v: serde_json::Value = serde_json::from_str(BEFORE_SCHEMA_VERSION).unwrap();
+        v["gates"][0]["name"] = "a gate of a later version".into();
+        v["photos"][0]["status"] = "maybe".into();
+        v["method"] = "a later method".into();
+        let doc: LaserDocument = serde_json::from_value(v).unwrap();
+        assert!(doc.gates.is_empty() && doc.photos.is_empty() && doc.method.is_none());
+        assert_eq!(doc.laser.origin_m, [-0.04, -0.105, 0.0]);
+        assert_eq!(doc.outliers, Some(XOfN(0, 15)));
     }
 }

@@ -34,6 +34,15 @@ fn schema_version_1() -> u32 {
     1
 }
 
+/// A part of a document that only reports (a fit's photos and gates, a validation's
+/// photos), as read: what it says, or absent when it does not parse. Reading a document is
+/// for its verdict or its calibration; a report in words this build does not know (a gate
+/// or a status added later) must not make a user's file unreadable.
+fn report_part<'de, D: Deserializer<'de>, T: serde::de::DeserializeOwned + Default>(d: D) -> Result<T, D::Error> {
+    let value = serde_json::Value::deserialize(d)?;
+    Ok(serde_json::from_value(value).unwrap_or_default())
+}
+
 /// A document written by a newer fslcal than this one.
 #[derive(Debug, PartialEq, thiserror::Error)]
 #[error("written by a newer fslcal (schema_version {found}; this build reads up to {SCHEMA_VERSION}); update fslcal")]

@@ -4,7 +4,7 @@
 //! Filing needs only `pass` (and `unit`, unless `--unit` names it): the registry keeps the
 //! report's bytes as they are and reads its verdict.
 
-use super::schema_version_1;
+use super::{report_part, schema_version_1};
 use crate::calibration::outcome::{LengthRule, PhotoValidation};
 use serde::{Deserialize, Serialize};
 
@@ -24,7 +24,7 @@ pub struct ValidationDocument {
     pub rule: Option<LengthRule>,
     /// A photo passes within ±this, percent.
     pub tolerance_pct: Option<f64>,
-    #[serde(default)]
+    #[serde(default, deserialize_with = "report_part")]
     pub photos: Vec<PhotoValidation>,
     /// Slope of the length error against distance and its 1-sigma, percent per metre;
     /// null when the photos do not span enough distance (3 photos over 0.5 m).
@@ -65,5 +65,7 @@ mod tests {
         let d: ValidationDocument = serde_json::from_str(r#"{"photos": [], "pass": true}"#).unwrap();
         assert!(d.pass && d.schema_version == 1 && d.unit.is_none());
         assert!(serde_json::from_str::<ValidationDocument>(r#"{"photos": []}"#).is_err());
+        let odd: ValidationDocument = serde_json::from_str(r#"{"photos": [{"file": 3}], "pass": false}"#).unwrap();
+        assert!(!odd.pass && odd.photos.is_empty());
     }
 }
