@@ -51,8 +51,9 @@ impl Calibration {
 
 #[derive(Debug, thiserror::Error)]
 pub enum CalibrationError {
-    #[error("{path}: cannot read the calibration: {source}")]
-    Io { path: String, source: std::io::Error },
+    /// The cause is in the message, not a `source`, or `{:#}` would say it twice.
+    #[error("{path}: cannot read the calibration: {cause}")]
+    Io { path: String, cause: std::io::Error },
     #[error(
         "{path}: not a calibration file (expected the JSON `fslcal laser --out` writes, or a signed .fslcal); {why}"
     )]
@@ -85,7 +86,7 @@ pub fn camera_json(c: &CameraModel) -> serde_json::Value {
 /// Reads a calibration from `path`.
 pub fn load(path: &Path) -> Result<Calibration, CalibrationError> {
     let name = path.display().to_string();
-    let bytes = std::fs::read(path).map_err(|source| CalibrationError::Io { path: name.clone(), source })?;
+    let bytes = std::fs::read(path).map_err(|cause| CalibrationError::Io { path: name.clone(), cause })?;
     if bytes.starts_with(&unit_file::MAGIC) {
         parse_unit_file(&bytes, path)
     } else {
