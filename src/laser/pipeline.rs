@@ -17,11 +17,11 @@ use crate::laser::fit::{self, DotObservation, FitError, Gates, LaserFit, Method}
 use crate::reason::Reason;
 use crate::vision::{self, EncodedPhoto, Photo, TargetPose};
 use fslcal_core::{CameraModel, LaserLine, Vec2};
-
-pub use super::outcome::{BoardInImage, DotSource, PhotoReport, PhotoStatus, SkipReason, TargetMiss};
 use rayon::prelude::*;
 use std::collections::HashMap;
 use std::path::{Path, PathBuf};
+
+pub use super::outcome::{BoardInImage, DotSource, PhotoReport, PhotoStatus, SkipReason, TargetMiss};
 
 /// What was learned from one photo before fitting.
 #[derive(Clone, Debug)]
