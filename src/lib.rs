@@ -12,16 +12,19 @@
 //! - [`units`]: keys, signed unit files on disk, the registry, the lab's `.pkg`.
 //! - [`calibration`]: using a calibration: loading it, comparing two, validate and drift.
 //! - [`fish`]: measuring fish with a calibration.
-//! - [`report`]: the HTML reports; [`cli`]: the commands.
+//! - [`report`]: the HTML reports; [`documents`]: the JSON documents; [`cli`]: the commands.
+//! - [`reason`]: a decision (why a photo was skipped) carried with its sentence.
 
 pub mod atomic_file;
 pub mod calibration;
 pub mod camera;
 pub mod cli;
+pub mod documents;
 pub mod dot;
 pub mod fish;
 pub mod laser;
 pub mod photo;
+pub mod reason;
 pub mod report;
 pub mod units;
 pub mod utc_time;

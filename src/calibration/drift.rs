@@ -14,36 +14,21 @@
 use crate::calibration::Calibration;
 use crate::dot::on_line::{find_dot_on_laser_line, LineSearch};
 use crate::dot::on_target::detected_sigma_px;
-use crate::vision::EncodedPhoto;
+use crate::laser::target::strip_path;
+use crate::vision::{EncodedPhoto, Photo};
 use fslcal_core::{CameraModel, LaserLine, Vec2, Vec3};
 use nalgebra::{Matrix4, Vector4};
 use rayon::prelude::*;
-use serde::Serialize;
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
+
+pub use super::outcome::{CheckOutcome, CheckSkip, PhotoCheck};
 
 /// A photo is flagged when its offset exceeds this many sigmas of what is explained.
 pub const FLAG_SIGMAS: f64 = 5.0;
 /// Floor of a dot's localisation sigma, pixels: JPEG blocks and the dot model's own limits.
 const DOT_SIGMA_FLOOR_PX: f64 = 0.3;
 
-/// One photo's line.
-#[derive(Clone, Debug, Serialize)]
-pub struct PhotoCheck {
-    pub file: String,
-    pub dot_px: Option<[f64; 2]>,
-    /// Perpendicular distance of the dot from the calibrated line's image, pixels.
-    pub offset_px: Option<f64>,
-    /// What the calibration and the dot's localisation explain, 1 sigma, pixels.
-    pub explained_sigma_px: Option<f64>,
-    pub flag: bool,
-    /// Depth of the dot by the calibration, metres.
-    pub distance_m: Option<f64>,
-    /// Angle at the laser's origin between the calibrated beam and the dot, degrees.
-    pub direction_change_deg: Option<f64>,
-    pub reason: Option<String>,
-}
-
-#[derive(Clone, Debug, Serialize)]
+#[derive(Clone, Debug)]
 pub struct DriftCheck {
     pub photos: Vec<PhotoCheck>,
     pub drifted: bool,
@@ -92,61 +77,12 @@ pub fn check(cal: &Calibration, photos: &[PathBuf], progress: &(dyn Fn() + Sync)
     let results: Vec<PhotoCheck> = photos
         .par_iter()
         .map(|path| -> Result<PhotoCheck, CheckError> {
-            let file = path.display().to_string();
-            let mut out = PhotoCheck {
-                file: file.clone(),
-                dot_px: None,
-                offset_px: None,
-                explained_sigma_px: None,
-                flag: false,
-                distance_m: None,
-                direction_change_deg: None,
-                reason: None,
-            };
-            let photo = EncodedPhoto::read(path).and_then(|e| {
-                let size = e.dimensions()?;
-                Ok((size, e.decode_full()?))
-            });
+            let photo = decode(path, cal);
             progress();
-            let ((w, h), photo) = match photo {
-                Ok(p) => p,
-                Err(e) => {
-                    out.reason = Some(
-                        e.to_string()
-                            .strip_prefix(&file)
-                            .map_or(e.to_string(), |m| m.trim_start_matches(':').trim().to_string()),
-                    );
-                    return Ok(out);
-                }
-            };
-            let cam = &cal.camera;
-            if (w, h) != (cam.width_px, cam.height_px) {
-                return Err(CheckError::ImageSize {
-                    file,
-                    photo_w: w,
-                    photo_h: h,
-                    camera_w: cam.width_px,
-                    camera_h: cam.height_px,
-                });
-            }
-            let dot = match find_dot_on_laser_line(&photo.colour(), cam, &cal.laser, &search) {
-                Ok(d) => d,
-                Err(e) => {
-                    out.reason = Some(e.to_string());
-                    return Ok(out);
-                }
-            };
-            out.dot_px = Some([dot.pixel.x, dot.pixel.y]);
-            out.offset_px = Some(dot.offset_px);
-            let fix = cal.laser.fix_from_pixel(cam, dot.pixel);
-            if let Some(fix) = fix {
-                out.distance_m = Some(fix.depth_m);
-                out.direction_change_deg = Some(fix.miss_m.atan2(fix.along_laser_m.max(1e-9)).to_degrees());
-                let dot_sigma = detected_sigma_px(&dot.candidate).max(DOT_SIGMA_FLOOR_PX);
-                let line_sigma = line_sigma_px(cam, &cal.laser, &cov, fix.depth_m).unwrap_or(0.0);
-                let sigma = dot_sigma.hypot(line_sigma);
-                out.explained_sigma_px = Some(sigma);
-                out.flag = dot.offset_px > FLAG_SIGMAS * sigma;
+            let mut out = PhotoCheck { file: path.display().to_string(), ..PhotoCheck::default() };
+            match photo? {
+                Ok(photo) => check_photo(cal, &cov, &search, &photo, &mut out),
+                Err(why) => out.reason = Some(why.into()),
             }
             Ok(out)
         })
@@ -164,4 +100,50 @@ pub fn check(cal: &Calibration, photos: &[PathBuf], progress: &(dyn Fn() + Sync)
         photos: results,
         implied_direction_change_deg: implied,
     })
+}
+
+/// The photo at `path`, decoded; `Ok(Err)` when it cannot be read, `Err` when it is not the
+/// calibrated camera's size.
+fn decode(path: &Path, cal: &Calibration) -> Result<Result<Photo, CheckSkip>, CheckError> {
+    let file = path.display().to_string();
+    let photo = EncodedPhoto::read(path).and_then(|e| Ok((e.dimensions()?, e.decode_full()?)));
+    let ((w, h), photo) = match photo {
+        Ok(p) => p,
+        Err(e) => return Ok(Err(CheckSkip::Unreadable { detail: strip_path(&e.to_string(), &file) })),
+    };
+    let cam = &cal.camera;
+    if (w, h) != (cam.width_px, cam.height_px) {
+        return Err(CheckError::ImageSize {
+            file,
+            photo_w: w,
+            photo_h: h,
+            camera_w: cam.width_px,
+            camera_h: cam.height_px,
+        });
+    }
+    Ok(Ok(photo))
+}
+
+/// Finds the dot along the calibrated line's image and compares its offset with what the
+/// calibration and the dot's localisation explain.
+fn check_photo(cal: &Calibration, cov: &Matrix4<f64>, search: &LineSearch, photo: &Photo, out: &mut PhotoCheck) {
+    let cam = &cal.camera;
+    let dot = match find_dot_on_laser_line(&photo.colour(), cam, &cal.laser, search) {
+        Ok(d) => d,
+        Err(e) => {
+            out.reason = Some(CheckSkip::NoDot(e).into());
+            return;
+        }
+    };
+    out.dot_px = Some([dot.pixel.x, dot.pixel.y]);
+    out.offset_px = Some(dot.offset_px);
+    if let Some(fix) = cal.laser.fix_from_pixel(cam, dot.pixel) {
+        out.distance_m = Some(fix.depth_m);
+        out.direction_change_deg = Some(fix.miss_m.atan2(fix.along_laser_m.max(1e-9)).to_degrees());
+        let dot_sigma = detected_sigma_px(&dot.candidate).max(DOT_SIGMA_FLOOR_PX);
+        let line_sigma = line_sigma_px(cam, &cal.laser, cov, fix.depth_m).unwrap_or(0.0);
+        let sigma = dot_sigma.hypot(line_sigma);
+        out.explained_sigma_px = Some(sigma);
+        out.flag = dot.offset_px > FLAG_SIGMAS * sigma;
+    }
 }

@@ -10,14 +10,16 @@
 pub mod change;
 #[cfg(feature = "vision")]
 pub mod drift;
+pub mod outcome;
 #[cfg(feature = "vision")]
 pub mod validate;
 
+use crate::documents::laser::LaserDocument;
+use crate::documents::{check_schema, CameraJson, NewerSchema};
 use crate::laser::fit::distance_sigma;
 use fslcal_core::unit_file::{self, FormatError};
-use fslcal_core::{CameraModel, Distortion, LaserLine};
+use fslcal_core::{CameraModel, LaserLine};
 use nalgebra::Matrix4;
-use serde::Deserialize;
 use std::path::{Path, PathBuf};
 
 /// Everything a command needs to turn a dot pixel into a distance and pixels into lengths.
@@ -49,60 +51,42 @@ impl Calibration {
 
 #[derive(Debug, thiserror::Error)]
 pub enum CalibrationError {
-    #[error("{path}: cannot read the calibration: {source}")]
-    Io { path: String, source: std::io::Error },
+    /// The cause is in the message, not a `source`, or `{:#}` would say it twice.
+    #[error("{path}: cannot read the calibration: {cause}")]
+    Io { path: String, cause: std::io::Error },
     #[error(
         "{path}: not a calibration file (expected the JSON `fslcal laser --out` writes, or a signed .fslcal); {why}"
     )]
     NotACalibration { path: String, why: String },
     #[error("{path}: the calibration is implausible ({why}); re-run `fslcal laser`")]
-    Implausible { path: String, why: String },
+    Implausible { path: String, why: Implausibility },
     #[error("{path}: {cause}")]
     UnitFile { path: String, cause: FormatError },
+    #[error("{path}: {cause}")]
+    Newer { path: String, cause: NewerSchema },
 }
 
-/// The camera block of `fslcal laser --out`, keyed as `fslcal camera --json` prints it.
-#[derive(Deserialize)]
-struct CameraJson {
-    image_size: [u32; 2],
-    fx: f64,
-    fy: f64,
-    cx: f64,
-    cy: f64,
-    dist: [f64; 5],
-}
-
-#[derive(Deserialize)]
-struct LaserJson {
-    origin_m: [f64; 3],
-    direction: [f64; 3],
-    covariance: [[f64; 4]; 4],
-}
-
-#[derive(Deserialize)]
-struct LaserResultJson {
-    camera: CameraJson,
-    laser: LaserJson,
-    depth_range_m: Option<(f64, f64)>,
-    unit: Option<String>,
-    camera_serial: Option<String>,
-    focal_length_mm: Option<f64>,
+/// What makes a calibration read from JSON unusable.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, thiserror::Error)]
+pub enum Implausibility {
+    #[error("camera intrinsics out of range")]
+    Camera,
+    #[error("laser direction not forward")]
+    LaserBackward,
+    #[error("laser covariance not finite")]
+    Covariance,
 }
 
 /// The `camera` object every JSON output uses: `image_size` [w, h] and `fx`, `fy`, `cx`, `cy`
-/// in pixels, `dist` as OpenCV's `[k1, k2, p1, p2, k3]`.
+/// in pixels, `dist` as OpenCV's `[k1, k2, p1, p2, k3]` (see [`CameraJson`]).
 pub fn camera_json(c: &CameraModel) -> serde_json::Value {
-    serde_json::json!({
-        "image_size": [c.width_px, c.height_px],
-        "fx": c.fx_px, "fy": c.fy_px, "cx": c.cx_px, "cy": c.cy_px,
-        "dist": c.distortion.to_opencv(),
-    })
+    serde_json::to_value(CameraJson::from(c)).expect("numbers and arrays always serialize")
 }
 
 /// Reads a calibration from `path`.
 pub fn load(path: &Path) -> Result<Calibration, CalibrationError> {
     let name = path.display().to_string();
-    let bytes = std::fs::read(path).map_err(|source| CalibrationError::Io { path: name.clone(), source })?;
+    let bytes = std::fs::read(path).map_err(|cause| CalibrationError::Io { path: name.clone(), cause })?;
     if bytes.starts_with(&unit_file::MAGIC) {
         parse_unit_file(&bytes, path)
     } else {
@@ -135,30 +119,24 @@ pub fn from_unit_file(file: &unit_file::SignedUnitFile<'_>, path: &Path) -> Cali
     }
 }
 
+/// Reads the laser result `fslcal laser --out` writes (any schema version up to this
+/// build's; a file from before `schema_version` is version 1).
 fn parse_laser_json(bytes: &[u8], path: &Path) -> Result<Calibration, CalibrationError> {
     let name = path.display().to_string();
-    let r: LaserResultJson = serde_json::from_slice(bytes)
+    let r: LaserDocument = serde_json::from_slice(bytes)
         .map_err(|e| CalibrationError::NotACalibration { path: name.clone(), why: e.to_string() })?;
-    let c = r.camera;
-    let camera = CameraModel {
-        width_px: c.image_size[0],
-        height_px: c.image_size[1],
-        fx_px: c.fx,
-        fy_px: c.fy,
-        cx_px: c.cx,
-        cy_px: c.cy,
-        distortion: Distortion::from_opencv(c.dist),
-    };
+    check_schema(r.schema_version).map_err(|cause| CalibrationError::Newer { path: name.clone(), cause })?;
+    let camera = CameraModel::from(&r.camera);
     if !camera.is_plausible() {
-        return Err(CalibrationError::Implausible { path: name, why: "camera intrinsics out of range".into() });
+        return Err(CalibrationError::Implausible { path: name, why: Implausibility::Camera });
     }
     let laser = LaserLine::from_point_direction(
         fslcal_core::Vec3::from(r.laser.origin_m),
         fslcal_core::Vec3::from(r.laser.direction),
     )
-    .ok_or_else(|| CalibrationError::Implausible { path: name.clone(), why: "laser direction not forward".into() })?;
+    .ok_or_else(|| CalibrationError::Implausible { path: name.clone(), why: Implausibility::LaserBackward })?;
     if r.laser.covariance.iter().flatten().any(|v| !v.is_finite()) {
-        return Err(CalibrationError::Implausible { path: name, why: "laser covariance not finite".into() });
+        return Err(CalibrationError::Implausible { path: name, why: Implausibility::Covariance });
     }
     Ok(Calibration {
         camera,
@@ -175,6 +153,7 @@ fn parse_laser_json(bytes: &[u8], path: &Path) -> Result<Calibration, Calibratio
 #[cfg(test)]
 mod tests {
     use super::*;
+    use fslcal_core::Distortion;
 
     fn example() -> serde_json::Value {
         let camera = CameraModel {
@@ -228,6 +207,16 @@ mod tests {
         std::fs::write(&path, &buf[..n]).unwrap();
         let msg = load(&path).unwrap_err().to_string();
         assert!(msg.contains("FSL-03.fslcal: tampered"), "{msg}");
+    }
+
+    #[test]
+    fn refuses_a_newer_schema_and_reads_an_explicit_version_1() {
+        let mut v = example();
+        v["schema_version"] = 1.into();
+        assert!(parse_laser_json(&serde_json::to_vec(&v).unwrap(), Path::new("x.json")).is_ok());
+        v["schema_version"] = 2.into();
+        let msg = parse_laser_json(&serde_json::to_vec(&v).unwrap(), Path::new("new.json")).unwrap_err().to_string();
+        assert!(msg.starts_with("new.json: written by a newer fslcal (schema_version 2"), "{msg}");
     }
 
     #[test]

@@ -10,27 +10,19 @@
 use crate::calibration::Calibration;
 use crate::dot::candidates::{DotDetectorParams, SearchRegion};
 use crate::dot::on_line::{laser_image_polyline, DEFAULT_BAND_HALF_WIDTH_PX, DEFAULT_SEARCH_DEPTHS_M};
+use crate::laser::outcome::TargetMiss;
 use crate::laser::pipeline::LaserError;
-use crate::laser::target::{locate_target, Target};
-use fslcal_core::{Plane, Vec2, Vec3};
+use crate::laser::target::{locate_target, LocatedTarget, Target};
+use crate::reason::Reason;
+use fslcal_core::{DotFix, Plane, Vec2, Vec3};
 use rayon::prelude::*;
-use serde::Serialize;
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
+
+pub use super::outcome::{LengthRule, PhotoValidation, ValidationOutcome, ValidationSkip};
 
 /// Largest relative disagreement between a blob's distance by the laser and by the target's
 /// plane for the blob to be taken as the dot.
 const MAX_DISTANCE_DISAGREEMENT: f64 = 0.3;
-
-/// How the two end points are put into 3D.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, clap::ValueEnum)]
-#[serde(rename_all = "kebab-case")]
-pub enum LengthRule {
-    /// The plane through the dot's 3D point with the target's detected orientation
-    /// (orientation only, no distance): judges the calibration, not the photo's tilt.
-    TiltedPlane,
-    /// The thesis's rule: both ends at the dot's depth, as for a fish.
-    FrontoParallel,
-}
 
 /// Settings of one run.
 #[derive(Clone, Debug)]
@@ -45,29 +37,8 @@ pub struct ValidationJob {
     pub detector: DotDetectorParams,
 }
 
-/// One photo's line.
-#[derive(Clone, Debug, Serialize)]
-pub struct PhotoValidation {
-    pub file: String,
-    pub measured_mm: Option<f64>,
-    pub true_mm: f64,
-    pub error_pct: Option<f64>,
-    /// `None` for a skipped photo.
-    pub pass: Option<bool>,
-    pub distance_m: Option<f64>,
-    pub dot_px: Option<[f64; 2]>,
-    pub target_inliers: Option<usize>,
-    pub reason: Option<String>,
-    /// The target's outline and the length's end points in the image, pixels; kept for the
-    /// HTML report, not the JSON.
-    #[serde(skip)]
-    pub target_outline_px: Vec<Vec2>,
-    #[serde(skip)]
-    pub ends_px: Option<[Vec2; 2]>,
-}
-
 /// The run's result.
-#[derive(Clone, Debug, Serialize)]
+#[derive(Clone, Debug)]
 pub struct Validation {
     pub length_name: String,
     pub true_mm: f64,
@@ -95,15 +66,32 @@ pub enum ValidationError {
     NothingMeasured,
 }
 
+/// The length a run measures: its name and end points in the target frame, metres.
+struct KnownLength {
+    name: String,
+    from_m: Vec3,
+    to_m: Vec3,
+}
+
+impl KnownLength {
+    fn true_m(&self) -> f64 {
+        (self.to_m - self.from_m).norm()
+    }
+}
+
 /// The known length: name and its end points in the target frame, metres.
-fn known_length(job: &ValidationJob) -> Result<(String, Vec3, Vec3), ValidationError> {
+fn known_length(job: &ValidationJob) -> Result<KnownLength, ValidationError> {
     match &job.target {
         Target::Checkerboard(b) => {
             if job.length_name.is_some() {
                 return Err(ValidationError::LengthOnCheckerboard);
             }
             let far = (b.inner_cols - 1) as f64 * b.square_m;
-            Ok(("first row of inner corners".into(), Vec3::zeros(), Vec3::new(far, 0.0, 0.0)))
+            Ok(KnownLength {
+                name: "first row of inner corners".into(),
+                from_m: Vec3::zeros(),
+                to_m: Vec3::new(far, 0.0, 0.0),
+            })
         }
         Target::Slate(m) => {
             let l = match &job.length_name {
@@ -113,7 +101,11 @@ fn known_length(job: &ValidationJob) -> Result<(String, Vec3, Vec3), ValidationE
                 })?,
                 None => m.slate.length(None).ok_or(ValidationError::NoLengths)?,
             };
-            Ok((l.name.clone(), Vec3::new(l.from_m[0], l.from_m[1], 0.0), Vec3::new(l.to_m[0], l.to_m[1], 0.0)))
+            Ok(KnownLength {
+                name: l.name.clone(),
+                from_m: Vec3::new(l.from_m[0], l.from_m[1], 0.0),
+                to_m: Vec3::new(l.to_m[0], l.to_m[1], 0.0),
+            })
         }
     }
 }
@@ -142,95 +134,115 @@ pub fn validate(
     progress: &(dyn Fn() + Sync),
 ) -> Result<Validation, ValidationError> {
     crate::vision::use_single_threaded_opencv();
-    let (name, from_t, to_t) = known_length(job)?;
-    let true_m = (to_t - from_t).norm();
-    let (camera, laser) = (&job.cal.camera, &job.cal.laser);
-    let line = laser_image_polyline(camera, laser, DEFAULT_SEARCH_DEPTHS_M);
+    let length = known_length(job)?;
+    let line = laser_image_polyline(&job.cal.camera, &job.cal.laser, DEFAULT_SEARCH_DEPTHS_M);
     let results: Vec<PhotoValidation> = photos
         .par_iter()
         .map(|path| -> Result<PhotoValidation, ValidationError> {
-            let mut out = PhotoValidation {
-                file: path.display().to_string(),
-                measured_mm: None,
-                true_mm: true_m * 1e3,
-                error_pct: None,
-                pass: None,
-                distance_m: None,
-                dot_px: None,
-                target_inliers: None,
-                reason: None,
-                target_outline_px: Vec::new(),
-                ends_px: None,
-            };
-            let located = locate_target(&job.target, camera, path);
+            let located = locate_target(&job.target, &job.cal.camera, path);
             progress();
-            let t = match located? {
-                Ok(t) => t,
-                Err(why) => {
-                    out.reason = Some(why);
-                    return Ok(out);
-                }
-            };
-            out.target_inliers = t.inliers;
-            out.target_outline_px = t.outline_px.clone();
-            // The dot: on the target, near the calibrated laser's image (a band wide enough
-            // for a wrong calibration's dot, which is what this command must catch).
-            let region = SearchRegion { polygon: t.outline_px.clone(), band: Some((line.clone(), DEFAULT_BAND_HALF_WIDTH_PX)) };
-            // Among several blobs, the dot is the one whose distance by the laser agrees best
-            // with where its ray meets the target's plane: a choice among candidates only;
-            // the scale still comes from the dot alone.
-            let plane = t.pose.plane();
-            let candidates = job.target.find_dots(&t.photo.colour(), &region, &job.detector, 8);
-            let chosen = candidates
-                .iter()
-                .filter_map(|c| {
-                    let fix = laser.fix_from_pixel(camera, c.pixel)?;
-                    let on_plane = crate::laser::fit::dot_point(camera, &plane, c.pixel)?;
-                    Some((c, fix, (fix.depth_m / on_plane.z).ln().abs()))
-                })
-                .min_by(|a, b| a.2.total_cmp(&b.2));
-            let Some((dot, fix, disagreement)) = chosen else {
-                out.reason = Some("no laser dot found on the target near the calibrated laser's image".into());
-                return Ok(out);
-            };
-            // A blob whose laser distance is far from the target's is not the dot (a wrong
-            // laser direction of 0.5 deg moves the distance by under 20% at 2 m); a
-            // calibration that wrong everywhere leaves nothing measured, which fails too.
-            if disagreement > MAX_DISTANCE_DISAGREEMENT.ln_1p() {
-                let on_plane = crate::laser::fit::dot_point(camera, &plane, dot.pixel).map_or(f64::NAN, |p| p.z);
-                out.reason = Some(format!(
-                    "the best dot-like blob gives {:.2} m by the laser but lies on the target at {on_plane:.2} m: not the dot, or a badly wrong calibration",
-                    fix.depth_m
-                ));
-                return Ok(out);
-            }
-            out.dot_px = Some([dot.pixel.x, dot.pixel.y]);
-            out.distance_m = Some(fix.depth_m);
-            let ends = [from_t, to_t].map(|p| camera.project(&t.pose.to_camera(&p)));
-            let [Some(a_px), Some(b_px)] = ends else {
-                out.reason = Some("the length's end points are behind the camera".into());
-                return Ok(out);
-            };
-            out.ends_px = Some([a_px, b_px]);
-            let measured = match job.rule {
-                LengthRule::FrontoParallel => camera.length_at_depth(a_px, b_px, fix.depth_m),
-                LengthRule::TiltedPlane => {
-                    let plane = Plane::through(fix.point_m, t.pose.rotation.column(2).into_owned());
-                    let hit = |px| camera.ray(px).and_then(|r| plane.intersect(&Vec3::zeros(), &r)).map(|(p, _)| p);
-                    hit(a_px).zip(hit(b_px)).map(|(a, b)| (a - b).norm())
-                }
-            };
-            let Some(measured) = measured else {
-                out.reason = Some("the length's end points could not be put on the plane".into());
-                return Ok(out);
-            };
-            let error = 100.0 * (measured - true_m) / true_m;
-            out.measured_mm = Some(measured * 1e3);
-            out.error_pct = Some(error);
-            out.pass = Some(error.abs() <= job.tolerance_pct);
-            Ok(out)
+            Ok(measure_photo(job, &length, &line, path, located?))
         })
         .collect::<Result<_, _>>()?;
+    judge(job, length, results)
+}
+
+/// One photo's line: the known length measured on its target, or why not.
+fn measure_photo(
+    job: &ValidationJob,
+    length: &KnownLength,
+    line: &[Vec2],
+    path: &Path,
+    located: Result<LocatedTarget, Reason<TargetMiss>>,
+) -> PhotoValidation {
+    let mut out = PhotoValidation {
+        file: path.display().to_string(),
+        true_mm: length.true_m() * 1e3,
+        ..PhotoValidation::default()
+    };
+    let measured = match located {
+        Ok(t) => measure_on_target(job, length, line, &t, &mut out).map_err(Reason::from),
+        Err(miss) => Err(miss.map(ValidationSkip::Target)),
+    };
+    if let Err(why) = measured {
+        out.reason = Some(why);
+    }
+    out
+}
+
+/// Finds the dot on a photo's target, measures the known length from it and judges it
+/// against the tolerance. Fills `out` as far as it gets; the error says where it stopped.
+fn measure_on_target(
+    job: &ValidationJob,
+    length: &KnownLength,
+    line: &[Vec2],
+    t: &LocatedTarget,
+    out: &mut PhotoValidation,
+) -> Result<(), ValidationSkip> {
+    let camera = &job.cal.camera;
+    out.target_inliers = t.inliers;
+    out.target_outline_px = t.outline_px.clone();
+    let (dot_px, fix) = choose_dot(job, line, t)?;
+    out.dot_px = Some([dot_px.x, dot_px.y]);
+    out.distance_m = Some(fix.depth_m);
+    let ends = [length.from_m, length.to_m].map(|p| camera.project(&t.pose.to_camera(&p)));
+    let [Some(a_px), Some(b_px)] = ends else {
+        return Err(ValidationSkip::EndsBehindCamera);
+    };
+    out.ends_px = Some([a_px, b_px]);
+    let measured = match job.rule {
+        LengthRule::FrontoParallel => camera.length_at_depth(a_px, b_px, fix.depth_m),
+        LengthRule::TiltedPlane => {
+            let plane = Plane::through(fix.point_m, t.pose.rotation.column(2).into_owned());
+            let hit = |px| camera.ray(px).and_then(|r| plane.intersect(&Vec3::zeros(), &r)).map(|(p, _)| p);
+            hit(a_px).zip(hit(b_px)).map(|(a, b)| (a - b).norm())
+        }
+    };
+    let measured = measured.ok_or(ValidationSkip::EndsOffPlane)?;
+    let true_m = length.true_m();
+    let error = 100.0 * (measured - true_m) / true_m;
+    out.measured_mm = Some(measured * 1e3);
+    out.error_pct = Some(error);
+    out.pass = Some(error.abs() <= job.tolerance_pct);
+    Ok(())
+}
+
+/// The dot: on the target, near the calibrated laser's image (a band wide enough for a
+/// wrong calibration's dot, which is what this command must catch). Among several blobs,
+/// the dot is the one whose distance by the laser agrees best with where its ray meets the
+/// target's plane: a choice among candidates only; the scale still comes from the dot alone.
+fn choose_dot(job: &ValidationJob, line: &[Vec2], t: &LocatedTarget) -> Result<(Vec2, DotFix), ValidationSkip> {
+    let (camera, laser) = (&job.cal.camera, &job.cal.laser);
+    let region =
+        SearchRegion { polygon: t.outline_px.clone(), band: Some((line.to_vec(), DEFAULT_BAND_HALF_WIDTH_PX)) };
+    let plane = t.pose.plane();
+    let candidates = job.target.find_dots(&t.photo.colour(), &region, &job.detector, 8);
+    let chosen = candidates
+        .iter()
+        .filter_map(|c| {
+            let fix = laser.fix_from_pixel(camera, c.pixel)?;
+            let on_plane = crate::laser::fit::dot_point(camera, &plane, c.pixel)?;
+            Some((c.pixel, fix, (fix.depth_m / on_plane.z).ln().abs()))
+        })
+        .min_by(|a, b| a.2.total_cmp(&b.2));
+    let (dot_px, fix, disagreement) = chosen.ok_or(ValidationSkip::NoDot)?;
+    // A blob whose laser distance is far from the target's is not the dot (a wrong laser
+    // direction of 0.5 deg moves the distance by under 20% at 2 m); a calibration that
+    // wrong everywhere leaves nothing measured, which fails too.
+    if disagreement > MAX_DISTANCE_DISAGREEMENT.ln_1p() {
+        let on_target_m = crate::laser::fit::dot_point(camera, &plane, dot_px).map_or(f64::NAN, |p| p.z);
+        return Err(ValidationSkip::NotTheDot { by_laser_m: fix.depth_m, on_target_m });
+    }
+    Ok((dot_px, fix))
+}
+
+/// The calibration's verdict from every photo's: each within the tolerance, and no real
+/// trend of the error with distance.
+fn judge(
+    job: &ValidationJob,
+    length: KnownLength,
+    results: Vec<PhotoValidation>,
+) -> Result<Validation, ValidationError> {
     let measured: Vec<(f64, f64)> = results.iter().filter_map(|p| p.distance_m.zip(p.error_pct)).collect();
     if measured.is_empty() {
         return Err(ValidationError::NothingMeasured);
@@ -243,8 +255,8 @@ pub fn validate(
     let trend_fails = slope.is_some_and(|(b, s)| b.abs() > 3.0 * s && b.abs() * span > 0.5 * job.tolerance_pct);
     let pass = !trend_fails && results.iter().all(|p| p.pass != Some(false));
     Ok(Validation {
-        length_name: name,
-        true_mm: true_m * 1e3,
+        true_mm: length.true_m() * 1e3,
+        length_name: length.name,
         rule: job.rule,
         tolerance_pct: job.tolerance_pct,
         photos: results,

@@ -14,8 +14,9 @@ use crate::vision::{self, EncodedPhoto, SolveOptions, VisionError};
 use calib_targets::Checkerboard;
 use fslcal_core::{CameraModel, Vec2, Vec3};
 use rayon::prelude::*;
-use serde::Serialize;
 use std::path::PathBuf;
+
+pub use super::outcome::{CameraPhotoReport, CameraPhotoStatus, CornerResiduals};
 
 /// Fewer views leave the focal length and the principal point confounded with the poses.
 pub const MIN_VIEWS: usize = 4;
@@ -60,36 +61,6 @@ impl From<VisionError> for CameraError {
     }
 }
 
-/// One photo's line in the report.
-#[derive(Clone, Debug, Serialize)]
-pub struct CameraPhotoReport {
-    pub file: String,
-    /// "used", "rejected" (an outlier photo) or "no board".
-    pub status: &'static str,
-    /// RMS over the corners in the solve (used) or over all its corners from its own pose
-    /// under the final camera (rejected), pixels per point.
-    pub rms_px: Option<f64>,
-    pub worst_px: Option<f64>,
-    pub corners_used: Option<usize>,
-    pub corners_found: Option<usize>,
-    /// Residual length beyond which this photo's corners were outliers.
-    pub corner_limit_px: Option<f64>,
-    /// The corners as detected, with their residuals; kept for the HTML report, not the JSON.
-    #[serde(skip)]
-    pub corners: Option<CornerResiduals>,
-}
-
-/// One photo's detected corners (row by row) with their residuals under the final camera:
-/// observed minus projected, pixels, from the solve's pose (used photos) or the photo's own
-/// pose (rejected photos).
-#[derive(Clone, Debug)]
-pub struct CornerResiduals {
-    pub corners_px: Vec<Vec2>,
-    pub residuals_px: Vec<Vec2>,
-    /// Whether each corner was in the final solve.
-    pub inlier: Vec<bool>,
-}
-
 /// Everything `fslcal camera` reports.
 #[derive(Clone, Debug)]
 pub struct CameraCalibration {
@@ -119,7 +90,7 @@ pub struct CameraCalibration {
 
 impl CameraCalibration {
     pub fn used_photos(&self) -> usize {
-        self.photos.iter().filter(|p| p.status == "used").count()
+        self.photos.iter().filter(|p| p.status == CameraPhotoStatus::Used).count()
     }
 }
 
@@ -231,87 +202,19 @@ fn report(
     views: &[ViewPoints],
     fit: ViewsFit,
 ) -> CameraCalibration {
+    let (reports, inlier_lengths) = photo_reports(job, photos, found, views, &fit);
+    let (worst_photo, worst_px) = reports
+        .iter()
+        .enumerate()
+        .filter(|(_, r)| r.status == CameraPhotoStatus::Used)
+        .filter_map(|(i, r)| Some((i, r.worst_px?)))
+        .fold((0, 0.0), |worst, (i, w)| if w > worst.1 { (i, w) } else { worst });
     let camera = fit.solve.camera;
     let (points, all_corners) = fit.inliers.corner_count();
-    let mut reports: Vec<CameraPhotoReport> = photos
-        .iter()
-        .map(|p| CameraPhotoReport {
-            file: p.display().to_string(),
-            status: "no board",
-            rms_px: None,
-            worst_px: None,
-            corners_used: None,
-            corners_found: None,
-            corner_limit_px: None,
-            corners: None,
-        })
-        .collect();
-    let pose_index: std::collections::HashMap<usize, usize> =
-        fit.inliers.used_views().enumerate().map(|(k, v)| (v, k)).collect();
-    let mut inlier_lengths = Vec::new();
-    let (mut worst_px, mut worst_photo) = (0.0, 0);
-    for (v, &photo) in found.iter().enumerate() {
-        let r = &mut reports[photo];
-        r.corners_found = Some(views[v].image_px.len());
-        match &fit.lengths[v] {
-            Some(lengths) => {
-                let kept: Vec<f64> =
-                    lengths.iter().zip(&fit.inliers.corners[v]).filter(|(_, k)| **k).map(|(l, _)| *l).collect();
-                let worst = kept.iter().copied().fold(0.0, f64::max);
-                if worst > worst_px {
-                    (worst_px, worst_photo) = (worst, photo);
-                }
-                r.status = "used";
-                r.rms_px = Some(rms_px(kept.iter().copied()));
-                r.worst_px = Some(worst);
-                r.corners_used = Some(kept.len());
-                r.corner_limit_px = Some(corner_limit_px(lengths, &job.rules));
-                if let Some(&k) = pose_index.get(&v) {
-                    r.corners = Some(CornerResiduals {
-                        corners_px: views[v].image_px.clone(),
-                        residuals_px: residuals_px(&camera, &fit.solve.poses[k], &views[v]),
-                        inlier: fit.inliers.corners[v].clone(),
-                    });
-                }
-                inlier_lengths.extend(kept);
-            }
-            None => {
-                // Rejected: how far off it is under the final camera, from its own best pose.
-                r.status = "rejected";
-                r.corners_used = Some(0);
-                if let Ok(Some(pose)) = vision::solve_pose(&camera, &views[v].object_m, &views[v].image_px) {
-                    r.rms_px = Some(pose.rms_px);
-                    r.worst_px = Some(pose.worst_px);
-                    let residuals = views[v]
-                        .object_m
-                        .iter()
-                        .zip(&views[v].image_px)
-                        .map(|(o, i)| {
-                            camera
-                                .project(&pose.to_camera(o))
-                                .map_or(Vec2::new(f64::INFINITY, f64::INFINITY), |q| i - q)
-                        })
-                        .collect();
-                    r.corners = Some(CornerResiduals {
-                        corners_px: views[v].image_px.clone(),
-                        residuals_px: residuals,
-                        inlier: vec![false; views[v].image_px.len()],
-                    });
-                }
-            }
-        }
-    }
     let boards: Vec<&[Vec2]> = fit.inliers.used_views().map(|v| views[v].image_px.as_slice()).collect();
-    let cov = coverage(
-        &boards,
-        job.board.inner_cols as usize,
-        job.board.inner_rows as usize,
-        (camera.width_px, camera.height_px),
-    );
-    let mut sigma = [0.0; 9];
-    for (s, o) in sigma.iter_mut().zip(&fit.solve.opencv_std_dev) {
-        *s = one_sigma_from_opencv46(*o, points, fit.solve.free_parameters);
-    }
+    let (cols, rows) = (job.board.inner_cols as usize, job.board.inner_rows as usize);
+    let cov = coverage(&boards, cols, rows, (camera.width_px, camera.height_px));
+    let sigma = fit.solve.opencv_std_dev.map(|o| one_sigma_from_opencv46(o, points, fit.solve.free_parameters));
     let rejected = fit.inliers.views.iter().filter(|u| !**u).count();
     CameraCalibration {
         camera,
@@ -329,4 +232,78 @@ fn report(
         photos: reports,
         solves: fit.solves,
     }
+}
+
+/// Every photo's line, and the residual lengths of all corners in the final solve.
+fn photo_reports(
+    job: &CameraJob,
+    photos: &[PathBuf],
+    found: &[usize],
+    views: &[ViewPoints],
+    fit: &ViewsFit,
+) -> (Vec<CameraPhotoReport>, Vec<f64>) {
+    let mut reports: Vec<CameraPhotoReport> =
+        photos.iter().map(|p| CameraPhotoReport::no_board(p.display().to_string())).collect();
+    let pose_index: std::collections::HashMap<usize, usize> =
+        fit.inliers.used_views().enumerate().map(|(k, v)| (v, k)).collect();
+    let mut inlier_lengths = Vec::new();
+    for (v, &photo) in found.iter().enumerate() {
+        let r = &mut reports[photo];
+        r.corners_found = Some(views[v].image_px.len());
+        match &fit.lengths[v] {
+            Some(lengths) => {
+                let pose = pose_index.get(&v).copied();
+                inlier_lengths.extend(used_view(job, fit, (v, &views[v]), pose, lengths, r));
+            }
+            None => rejected_view(&fit.solve.camera, &views[v], r),
+        }
+    }
+    (reports, inlier_lengths)
+}
+
+/// Fills a used photo's line from the final solve (view number `v`, its pose `pose` among
+/// the solve's); returns the residual lengths of its corners in the solve.
+fn used_view(
+    job: &CameraJob,
+    fit: &ViewsFit,
+    (v, view): (usize, &ViewPoints),
+    pose: Option<usize>,
+    lengths: &[f64],
+    r: &mut CameraPhotoReport,
+) -> Vec<f64> {
+    let kept: Vec<f64> = lengths.iter().zip(&fit.inliers.corners[v]).filter(|(_, k)| **k).map(|(l, _)| *l).collect();
+    r.status = CameraPhotoStatus::Used;
+    r.rms_px = Some(rms_px(kept.iter().copied()));
+    r.worst_px = Some(kept.iter().copied().fold(0.0, f64::max));
+    r.corners_used = Some(kept.len());
+    r.corner_limit_px = Some(corner_limit_px(lengths, &job.rules));
+    if let Some(k) = pose {
+        r.corners = Some(CornerResiduals {
+            corners_px: view.image_px.clone(),
+            residuals_px: residuals_px(&fit.solve.camera, &fit.solve.poses[k], view),
+            inlier: fit.inliers.corners[v].clone(),
+        });
+    }
+    kept
+}
+
+/// Fills a rejected photo's line: how far off it is under the final camera, from its own
+/// best pose.
+fn rejected_view(camera: &CameraModel, view: &ViewPoints, r: &mut CameraPhotoReport) {
+    r.status = CameraPhotoStatus::Rejected;
+    r.corners_used = Some(0);
+    let Ok(Some(pose)) = vision::solve_pose(camera, &view.object_m, &view.image_px) else { return };
+    r.rms_px = Some(pose.rms_px);
+    r.worst_px = Some(pose.worst_px);
+    let residuals = view
+        .object_m
+        .iter()
+        .zip(&view.image_px)
+        .map(|(o, i)| camera.project(&pose.to_camera(o)).map_or(Vec2::new(f64::INFINITY, f64::INFINITY), |q| i - q))
+        .collect();
+    r.corners = Some(CornerResiduals {
+        corners_px: view.image_px.clone(),
+        residuals_px: residuals,
+        inlier: vec![false; view.image_px.len()],
+    });
 }

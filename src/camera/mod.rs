@@ -4,4 +4,5 @@
 #[cfg(feature = "vision")]
 pub mod calibrate;
 pub mod opencv_yaml;
+pub mod outcome;
 pub mod residuals;

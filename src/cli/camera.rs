@@ -2,20 +2,16 @@
 
 use super::progress;
 use crate::atomic_file::write_atomically;
-use crate::calibration::camera_json;
-use crate::camera::calibrate::{calibrate, CameraCalibration, CameraJob};
+use crate::camera::calibrate::{calibrate, CameraCalibration, CameraJob, CameraPhotoStatus};
 use crate::camera::opencv_yaml::{self, CameraFileExtras};
 use crate::camera::residuals::FRAME_CORNER_SHARE;
+use crate::documents::{self, camera::CameraDocument, XOfN};
 use crate::photo::identity::photos_exif;
 use crate::report::{self, camera::CameraReport};
 use anyhow::{bail, Context};
 use calib_targets::Checkerboard;
-use serde_json::json;
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
-
-/// How the standard deviations are meant, for the summary and the JSON.
-const SIGMA_CONVENTION: &str = "1-sigma: sqrt(diag((JtJ)^-1) * s2) with s2 the noise variance per residual coordinate (sum of squares / (2N - P)); OpenCV 4.6's stdDeviationsIntrinsics divide by N - P (N points) and are larger by sqrt((2N - P)/(N - P)), about 1.41";
 
 /// Calibrate the camera's intrinsics from photos of a checkerboard.
 ///
@@ -65,7 +61,7 @@ pub fn run(args: CameraArgs) -> anyhow::Result<ExitCode> {
     bar.finish_and_clear();
     let cal = result.context("cannot calibrate the camera")?;
     if args.json {
-        println!("{}", serde_json::to_string_pretty(&json_report(&args, &cal))?);
+        println!("{}", documents::to_text(&CameraDocument::new(args.board.to_string(), &cal))?);
     } else {
         print!("{}", summary(&args, &cal));
     }
@@ -89,40 +85,6 @@ pub fn run(args: CameraArgs) -> anyhow::Result<ExitCode> {
         }
     }
     Ok(ExitCode::SUCCESS)
-}
-
-fn x_of_n((x, n): (usize, usize)) -> String {
-    format!("{x} of {n}")
-}
-
-fn json_report(args: &CameraArgs, cal: &CameraCalibration) -> serde_json::Value {
-    let s = &cal.sigma;
-    json!({
-        "board": args.board.to_string(),
-        "camera": camera_json(&cal.camera),
-        "rms_px": cal.rms_px,
-        "worst_px": cal.worst_px,
-        "worst_file": cal.photos[cal.worst_photo].file,
-        "sigma": {
-            "fx": s[0], "fy": s[1], "cx": s[2], "cy": s[3],
-            "k1": s[4], "k2": s[5], "p1": s[6], "p2": s[7], "k3": s[8],
-        },
-        "sigma_convention": SIGMA_CONVENTION,
-        "opencv_std_deviations_intrinsics": cal.opencv_std_dev,
-        "points": cal.points,
-        "free_parameters": cal.free_parameters,
-        "outliers": {
-            "corners": x_of_n(cal.corner_outliers),
-            "photos": x_of_n(cal.photo_outliers),
-            "corner_k_sigma": cal.k_corner,
-        },
-        "coverage": {
-            "share": cal.coverage.share,
-            "uncovered_frame_corners": cal.coverage.uncovered_frame_corners,
-        },
-        "solves": cal.solves,
-        "photos": cal.photos,
-    })
 }
 
 fn name_of(file: &str) -> String {
@@ -149,18 +111,15 @@ fn summary(args: &CameraArgs, cal: &CameraCalibration) -> String {
         };
         let rms = p.rms_px.map_or("-".into(), |r| format!("{r:.3}"));
         let worst = p.worst_px.map_or("-".into(), |r| format!("{r:.2}"));
-        let status = match p.status {
-            "rejected" => "rejected: an outlier photo (its corners disagree with the rest)",
-            other => other,
-        };
+        let status = p.status.explained();
         out += &format!("  {:width$}  {corners:>7}  {rms:>7}  {worst:>8}  {status}\n", name_of(&p.file));
     }
-    let no_board = cal.photos.iter().filter(|p| p.status == "no board").count();
+    let no_board = cal.photos.iter().filter(|p| p.status == CameraPhotoStatus::NoBoard).count();
     out += &format!(
         "\nphotos: {} used, {} rejected, {no_board} without the board; outlier photos {}\n",
         cal.used_photos(),
         cal.photo_outliers.0,
-        x_of_n(cal.photo_outliers)
+        XOfN::from(cal.photo_outliers)
     );
     out += &format!(
         "residuals: RMS {:.3} px per point over {} corners, worst {:.2} px in {}; outlier corners {} (beyond {} robust sigmas of their photo's corners)\n",
@@ -168,7 +127,7 @@ fn summary(args: &CameraArgs, cal: &CameraCalibration) -> String {
         cal.points,
         cal.worst_px,
         name_of(&cal.photos[cal.worst_photo].file),
-        x_of_n(cal.corner_outliers),
+        XOfN::from(cal.corner_outliers),
         cal.k_corner
     );
     out += &format!("fx {:9.2} ± {:.2} px   fy {:9.2} ± {:.2} px\n", c.fx_px, s[0], c.fy_px, s[1]);

@@ -3,7 +3,8 @@
 use super::body_check::BodyCheckArgs;
 use super::progress;
 use crate::calibration;
-use crate::calibration::drift::{check, DriftCheck, FLAG_SIGMAS};
+use crate::calibration::drift::{check, CheckOutcome, DriftCheck, FLAG_SIGMAS};
+use crate::documents::{self, check::CheckDocument};
 use crate::photo::identity::ExpectedCamera;
 use crate::report::{self, check::CheckReport};
 use anyhow::{bail, Context};
@@ -54,22 +55,7 @@ pub fn run(args: CheckArgs) -> anyhow::Result<ExitCode> {
     bar.finish_and_clear();
     let r = result.context("drift check")?;
     if args.json {
-        let photos: Vec<serde_json::Value> = r
-            .photos
-            .iter()
-            .map(|p| {
-                serde_json::json!({
-                    "file": p.file, "dot_px": p.dot_px, "offset_px": p.offset_px, "flag": p.flag,
-                    "explained_sigma_px": p.explained_sigma_px, "distance_m": p.distance_m, "reason": p.reason,
-                })
-            })
-            .collect();
-        let v = serde_json::json!({
-            "photos": photos,
-            "drifted": r.drifted,
-            "implied_direction_change_deg": r.implied_direction_change_deg,
-        });
-        println!("{}", serde_json::to_string_pretty(&v)?);
+        println!("{}", documents::to_text(&CheckDocument::from(&r))?);
     } else {
         print!("{}", summary(&r));
     }
@@ -104,10 +90,10 @@ fn summary(r: &DriftCheck) -> String {
     for p in &r.photos {
         let dot = p.dot_px.map_or("-".into(), |d| format!("({:.1}, {:.1})", d[0], d[1]));
         let f = |x: Option<f64>, d: usize| x.map_or("-".to_string(), |x| format!("{x:.d$}"));
-        let status = match (&p.reason, p.flag) {
-            (Some(r), _) => format!("skipped: {r}"),
-            (None, true) => "FLAG".to_string(),
-            (None, false) => "ok".to_string(),
+        let status = match p.outcome() {
+            CheckOutcome::Skipped(why) => format!("skipped: {why}"),
+            CheckOutcome::Flagged => "FLAG".to_string(),
+            CheckOutcome::Within => "ok".to_string(),
         };
         s += &format!(
             "  {:width$}  {dot:>19}  {:>7}  {:>9}  {:>8}  {status}\n",

@@ -3,14 +3,17 @@
 use super::body_check::BodyCheckArgs;
 use super::pixels::{parse_pixel, read_dots_csv};
 use super::progress;
+use super::signing::PriorUnit;
 use super::signing::{self, SigningArgs};
 use crate::atomic_file::write_atomically;
-use crate::calibration::camera_json;
+use crate::documents::laser::{LaserDocument, LaserLineJson, COVARIANCE_PARAMETERS};
+use crate::documents::{self, CameraJson, SCHEMA_VERSION};
 use crate::dot::candidates::DotDetectorParams;
 use crate::laser::fit::{Gates, Method};
-use crate::laser::pipeline::{calibrate, HandDots, LaserCalibration, LaserError, LaserJob, PhotoReport};
+use crate::laser::gates::GateResult;
+use crate::laser::pipeline::{calibrate, HandDots, LaserCalibration, LaserError, LaserJob, PhotoReport, PhotoStatus};
 use crate::laser::target::{Target, TargetArg};
-use crate::photo::identity::{photos_exif, PhotosExif};
+use crate::photo::identity::{photos_exif, ExpectedCamera, PhotosExif};
 use crate::report::{
     self,
     laser::{LaserOutcome, LaserReport},
@@ -20,7 +23,6 @@ use crate::utc_time;
 use anyhow::{bail, Context};
 use fslcal_core::unit_file::{CameraIdentity, FitMethod, FitQuality, UnitFile};
 use fslcal_core::CameraModel;
-use serde_json::json;
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
@@ -127,16 +129,50 @@ pub fn run(args: LaserArgs) -> anyhow::Result<ExitCode> {
         check.unit_and_key(out)?;
         keys::read_secret(check.key.as_deref().unwrap_or(out))?;
     }
-    let hand_dots = hand_dots(&args)?;
+    let job = job(&args, camera, &expected)?;
+    let cal = fit(&args, &job)?;
+    // Read once: the JSON reports it and a signed file records the body and depth from it.
+    let identity = photos_exif(&args.photos);
+    let document = document(&args, &job, &cal, &identity);
+    if args.json {
+        println!("{}", documents::to_text(&document)?);
+    } else {
+        print!("{}", summary(&args, &job, &cal));
+    }
+    write_report(&args, &job, LaserOutcome::Fitted(&cal))?;
+    if !cal.accepted() {
+        let failed: Vec<String> = cal.gates.iter().filter(|g| !g.pass).map(GateResult::failure_text).collect();
+        let note = if args.out.is_some() { "; nothing written" } else { "" };
+        bail!("laser calibration rejected: {}{note}", failed.join(", "));
+    }
+    match (signed_out, &args.out) {
+        (Some(out), _) => write_signed(&args, out, &job, &cal, prior.as_ref(), &identity)?,
+        (None, Some(out)) => {
+            let mut text = documents::to_text(&document)?;
+            text.push('\n');
+            write_atomically(out, text.as_bytes())
+                .with_context(|| format!("{}: cannot write the result", out.display()))?;
+            if !args.json {
+                println!("wrote {}", out.display());
+            }
+        }
+        (None, None) => {}
+    }
+    Ok(ExitCode::SUCCESS)
+}
+
+/// The run's settings from the options, once the photos are there and from the right body.
+fn job(args: &LaserArgs, camera: CameraModel, expected: &ExpectedCamera) -> anyhow::Result<LaserJob> {
+    let hand_dots = hand_dots(args)?;
     for p in &args.photos {
         if !p.is_file() {
             bail!("{}: no such photo", p.display());
         }
     }
-    args.body.check(&expected, &args.photos)?;
-    let job = LaserJob {
+    args.body.check(expected, &args.photos)?;
+    Ok(LaserJob {
         camera,
-        target: args.target.load().map_err(anyhow::Error::msg)?,
+        target: args.target.load()?,
         method: args.method,
         gates: Gates {
             baseline_range_m: args.baseline_range_mm,
@@ -145,73 +181,54 @@ pub fn run(args: LaserArgs) -> anyhow::Result<ExitCode> {
         },
         detector: DotDetectorParams::default(),
         hand_dots,
-    };
+    })
+}
+
+/// Runs the chain with a progress bar; a refused fit still gets its photo table and report.
+fn fit(args: &LaserArgs, job: &LaserJob) -> anyhow::Result<LaserCalibration> {
     let bar = progress::bar(args.photos.len(), "photos", args.json);
-    let result = calibrate(&job, &args.photos, &|| bar.inc(1));
+    let result = calibrate(job, &args.photos, &|| bar.inc(1));
     bar.finish_and_clear();
-    let cal = match result {
-        Ok(c) => c,
+    match result {
+        Ok(c) => Ok(c),
         Err(LaserError::Fit { source, photos }) => {
             if !args.json {
                 eprint!("{}", photo_table(&photos));
             }
-            let outcome = LaserOutcome::Refused { reason: source.to_string(), photos: &photos };
-            write_report(&args, &job, outcome)?;
+            write_report(args, job, LaserOutcome::Refused { reason: &source, photos: &photos })?;
             bail!("cannot fit the laser: {source}");
         }
-        Err(e) => return Err(e.into()),
-    };
-    // Read once: the JSON reports it and a signed file records the body and depth from it.
-    let identity = photos_exif(&args.photos);
-    let report = json_report(&args, &job, &cal, &identity);
-    if args.json {
-        println!("{}", serde_json::to_string_pretty(&report)?);
-    } else {
-        print!("{}", summary(&args, &job, &cal));
+        Err(e) => Err(e.into()),
     }
-    write_report(&args, &job, LaserOutcome::Fitted(&cal))?;
-    if !cal.accepted() {
-        let failed: Vec<String> = cal
-            .gates
-            .iter()
-            .filter(|g| !g.pass)
-            .map(|g| format!("{} {} (limit {})", g.name, g.figure, g.limit))
-            .collect();
-        let note = if args.out.is_some() { "; nothing written" } else { "" };
-        bail!("laser calibration rejected: {}{note}", failed.join(", "));
+}
+
+/// Signs the accepted calibration into `out`, with the camera body and the water depth the
+/// photos say when the options do not.
+fn write_signed(
+    args: &LaserArgs,
+    out: &Path,
+    job: &LaserJob,
+    cal: &LaserCalibration,
+    prior: Option<&PriorUnit>,
+    (exif, serial, _): &PhotosExif,
+) -> anyhow::Result<()> {
+    let mut signing_args = args.signing.clone();
+    // The body the photos agree on is the body calibrated: record it so photos from
+    // another body are refused later.
+    signing_args.camera_serial = signing_args.camera_serial.or_else(|| serial.clone());
+    // Where the calibration was made, from the TG-6's depth gauge when the options do
+    // not say: the median photo's, as divers drift a metre or two while shooting.
+    if signing_args.water_depth_m.is_none() {
+        let mut depths: Vec<f64> = exif.iter().flatten().filter_map(|e| e.water_depth_m).collect();
+        depths.sort_by(f64::total_cmp);
+        signing_args.water_depth_m = depths.get(depths.len() / 2).map(|&d| d as f32);
     }
-    if let Some(out) = signed_out {
-        let mut signing_args = args.signing.clone();
-        let (exif, serial, _) = &identity;
-        // The body the photos agree on is the body calibrated: record it so photos from
-        // another body are refused later.
-        signing_args.camera_serial = signing_args.camera_serial.or_else(|| serial.clone());
-        // Where the calibration was made, from the TG-6's depth gauge when the options do
-        // not say: the median photo's, as divers drift a metre or two while shooting.
-        if signing_args.water_depth_m.is_none() {
-            let mut depths: Vec<f64> = exif.iter().flatten().filter_map(|e| e.water_depth_m).collect();
-            depths.sort_by(f64::total_cmp);
-            signing_args.water_depth_m = depths.get(depths.len() / 2).map(|&d| d as f32);
-        }
-        let size = signing::sign_unit_file(
-            out,
-            &signing_args,
-            prior.as_ref(),
-            unit_contents(&target_label(&job.target), &job.camera, &cal),
-        )?;
-        if !args.json {
-            println!("wrote {} (signed, {size} bytes)", out.display());
-        }
-    } else if let Some(out) = &args.out {
-        let mut text = serde_json::to_string_pretty(&report)?;
-        text.push('\n');
-        write_atomically(out, text.as_bytes())
-            .with_context(|| format!("{}: cannot write the result", out.display()))?;
-        if !args.json {
-            println!("wrote {}", out.display());
-        }
+    let target = target_label(&job.target);
+    let size = signing::sign_unit_file(out, &signing_args, prior, unit_contents(&target, &job.camera, cal))?;
+    if !args.json {
+        println!("wrote {} (signed, {size} bytes)", out.display());
     }
-    Ok(ExitCode::SUCCESS)
+    Ok(())
 }
 
 fn write_report(args: &LaserArgs, job: &LaserJob, outcome: LaserOutcome) -> anyhow::Result<()> {
@@ -226,43 +243,40 @@ fn write_report(args: &LaserArgs, job: &LaserJob, outcome: LaserOutcome) -> anyh
     Ok(())
 }
 
-fn json_report(args: &LaserArgs, job: &LaserJob, cal: &LaserCalibration, identity: &PhotosExif) -> serde_json::Value {
-    let camera = &job.camera;
+/// The laser result document (`--json`, `--out FILE.json`).
+fn document(args: &LaserArgs, job: &LaserJob, cal: &LaserCalibration, identity: &PhotosExif) -> LaserDocument {
     let f = &cal.fit;
     let (exif, serial, focal) = identity;
-    let sigma: serde_json::Map<String, serde_json::Value> =
-        f.distance_sigma_m.iter().map(|(z, s)| (format!("{z}"), json!(s))).collect();
-    json!({
-        "camera_file": args.camera.display().to_string(),
-        // The intrinsics themselves, so that the result alone is a usable `--cal`.
-        "camera": camera_json(camera),
-        "target": job.target.to_string(),
-        "method": f.method,
-        "laser": {
-            "origin_m": f.laser.origin_m,
-            "direction": f.laser.direction,
-            "baseline_m": f.laser.baseline_m(),
-            "angle_to_optical_axis_deg": f.laser.angle_to_optical_axis().to_degrees(),
-            "covariance": f.covariance,
-            "covariance_parameters": ["origin_x_m", "origin_y_m", "direction_x_over_z", "direction_y_over_z"],
+    LaserDocument {
+        schema_version: SCHEMA_VERSION,
+        camera_file: Some(args.camera.display().to_string()),
+        camera: CameraJson::from(&job.camera),
+        target: Some(job.target.to_string()),
+        method: Some(f.method),
+        laser: LaserLineJson {
+            origin_m: f.laser.origin_m,
+            direction: f.laser.direction,
+            baseline_m: Some(f.laser.baseline_m()),
+            angle_to_optical_axis_deg: Some(f.laser.angle_to_optical_axis().to_degrees()),
+            covariance: f.covariance,
+            covariance_parameters: COVARIANCE_PARAMETERS.map(String::from).to_vec(),
         },
-        "residual_rms_px": f.residual_rms_px,
-        "residual_worst_px": f.residual_worst_px,
-        "residual_rms_mm": f.residual_rms_mm,
-        "residual_worst_mm": f.residual_worst_mm,
-        "span_m": f.span_m,
-        "depth_range_m": [f.depth_range_m.0, f.depth_range_m.1],
-        "predicted_distance_sigma_m": sigma,
-        "outliers": format!("{} of {}", cal.outliers.0, cal.outliers.1),
-        "gates": cal.gates,
-        "accepted": cal.accepted(),
-        "photos": cal.photos,
-        // Who took the photos, when and how deep: carried so `--cal` users can refuse
-        // another body's photos and warn on zoom.
-        "camera_serial": serial,
-        "focal_length_mm": focal,
-        "photo_exif": exif,
-    })
+        residual_rms_px: Some(f.residual_rms_px),
+        residual_worst_px: Some(f.residual_worst_px),
+        residual_rms_mm: Some(f.residual_rms_mm),
+        residual_worst_mm: Some(f.residual_worst_mm),
+        span_m: Some(f.span_m),
+        depth_range_m: Some(f.depth_range_m),
+        predicted_distance_sigma_m: f.distance_sigma_m.iter().map(|(z, s)| (format!("{z}"), *s)).collect(),
+        outliers: Some(cal.outliers.into()),
+        gates: cal.gates.clone(),
+        accepted: Some(cal.accepted()),
+        photos: cal.photos.clone(),
+        camera_serial: serial.clone(),
+        focal_length_mm: *focal,
+        photo_exif: exif.clone(),
+        unit: None,
+    }
 }
 
 /// What the signed unit file records of this fit; the unit and camera identity are filled
@@ -328,15 +342,7 @@ fn photo_table(photos: &[PhotoReport]) -> String {
         let dist = p.distance_m.map_or("-".into(), |d| format!("{d:.3}"));
         let dot = p.dot_px.map_or("-".into(), |d| format!("({:.1}, {:.1})", d[0], d[1]));
         let resid = p.residual_px.map_or("-".into(), |r| format!("{r:.2}"));
-        let status = match (&p.reason, p.dot_source) {
-            (Some(r), _) => format!("{}: {r}", p.status),
-            (None, Some(src)) => format!(
-                "used ({})",
-                serde_json::to_value(src).ok().and_then(|v| v.as_str().map(String::from)).unwrap_or_default()
-            ),
-            (None, None) => p.status.to_string(),
-        };
-        s += &format!("  {:width$}  {dist:>7}  {dot:>19}  {resid:>8}  {status}\n", name_of(&p.file));
+        s += &format!("  {:width$}  {dist:>7}  {dot:>19}  {resid:>8}  {}\n", name_of(&p.file), p.status_text());
     }
     s
 }
@@ -344,13 +350,13 @@ fn photo_table(photos: &[PhotoReport]) -> String {
 fn summary(args: &LaserArgs, job: &LaserJob, cal: &LaserCalibration) -> String {
     let f = &cal.fit;
     let l = &f.laser;
-    let used = cal.photos.iter().filter(|p| p.status == "used").count();
+    let used = cal.photos.iter().filter(|p| p.status == PhotoStatus::Used).count();
     let mut s = format!(
         "fslcal laser: {} photos, target {}, camera {}, method {}\n\n",
         cal.photos.len(),
         job.target,
         args.camera.display(),
-        serde_json::to_value(f.method).ok().and_then(|v| v.as_str().map(String::from)).unwrap_or_default(),
+        clap::ValueEnum::to_possible_value(&f.method).map_or_else(String::new, |v| v.get_name().to_string()),
     );
     s += &format!("photos: {used} used, {} skipped\n", cal.photos.len() - used);
     s += &photo_table(&cal.photos);

@@ -5,15 +5,19 @@ use super::pixels::{pixel_arg, read_dots_csv};
 use super::progress;
 use crate::atomic_file::write_atomically;
 use crate::calibration::{self, Calibration};
+use crate::documents::lengths::{
+    px, DistributionJson, FishEndsDocument, FishEndsJson, FishLengthDocument, FishRowJson, LengthsDocument, SummaryJson,
+};
+use crate::documents::{self, SCHEMA_VERSION};
 use crate::fish::labels::{read_labels, FishLabel};
 use crate::fish::measure::{
-    camera_body_mismatch, distribution, ends_at_edge, measure, Distribution, Length, MeasureParams, Withheld,
+    camera_body_mismatch, distribution, ends_at_edge, measure, Distribution, DotMissing, EndsMissing, Length,
+    MeasureParams, Withheld,
 };
 use crate::fish::{fish_ends, FishEnds, HeadCall, Mask};
 use anyhow::{bail, Context};
 use fslcal_core::Vec2;
 use rayon::prelude::*;
-use serde_json::{json, Value};
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
@@ -115,24 +119,6 @@ fn load_cal(args: &MeasureArgs) -> anyhow::Result<Calibration> {
     Ok(calibration::load(path)?)
 }
 
-fn px(p: Vec2) -> Value {
-    json!([p.x, p.y])
-}
-
-fn ends_json(e: &FishEnds) -> Value {
-    json!({
-        "head_px": px(e.head_px),
-        "tail_px": px(e.tail_px),
-        "length_px": e.length_px,
-        "chord_px": e.chord_px,
-        "bent": e.bent,
-        "head_call": e.head_call,
-        "head_known": e.head_call != HeadCall::Unknown,
-        "tail_point": e.tail_point,
-        "cut_by_edge": e.cut_by_edge,
-    })
-}
-
 fn load_ends(mask: &Path) -> anyhow::Result<(Mask, FishEnds)> {
     let m = Mask::load(mask)?;
     let ends = fish_ends(&m).with_context(|| mask.display().to_string())?;
@@ -154,7 +140,8 @@ fn head_call_text(call: HeadCall) -> &'static str {
 fn mask_only(args: &MeasureArgs, mask: &Path) -> anyhow::Result<ExitCode> {
     let (_, ends) = load_ends(mask)?;
     if args.json {
-        println!("{}", serde_json::to_string_pretty(&ends_json(&ends))?);
+        let document = FishEndsDocument { schema_version: SCHEMA_VERSION, ends: FishEndsJson::from(&ends) };
+        println!("{}", documents::to_text(&document)?);
     } else {
         println!(
             "{}: head ({:.1}, {:.1}) px, tail ({:.1}, {:.1}) px ({}), length {:.1} px{}\n  {}{}",
@@ -181,29 +168,28 @@ fn mask_only(args: &MeasureArgs, mask: &Path) -> anyhow::Result<ExitCode> {
 #[cfg(feature = "vision")]
 fn search_dot(cal: &Calibration, photo: &Path) -> Result<Vec2, Withheld> {
     use crate::dot::on_line::{find_dot_on_laser_line, LineSearch};
-    let no_dot = |why: String| Withheld::NoDot { why };
-    let decoded =
-        crate::vision::EncodedPhoto::read(photo).and_then(|p| p.decode_full()).map_err(|e| no_dot(e.to_string()))?;
+    let no_dot = |why: DotMissing| Withheld::NoDot { why: why.into() };
+    let decoded = crate::vision::EncodedPhoto::read(photo)
+        .and_then(|p| p.decode_full())
+        .map_err(|e| no_dot(DotMissing::Unreadable { message: e.to_string() }))?;
     find_dot_on_laser_line(&decoded.colour(), &cal.camera, &cal.laser, &LineSearch::default())
         .map(|d| d.pixel)
-        .map_err(|e| no_dot(e.to_string()))
+        .map_err(|e| no_dot(DotMissing::NotFound(e)))
 }
 
 #[cfg(not(feature = "vision"))]
 fn search_dot(_cal: &Calibration, _photo: &Path) -> Result<Vec2, Withheld> {
-    Err(Withheld::NoDot {
-        why: "built without the vision feature, so dots must be given (--dot, --dots or labels)".into(),
-    })
+    Err(Withheld::NoDot { why: DotMissing::NoVision.into() })
 }
 
 /// A photo's size in pixels: a JPEG's or PNG's from its header, a raw's from its active area.
-fn photo_size(photo: &Path) -> Result<(u32, u32), String> {
+fn photo_size(photo: &Path) -> anyhow::Result<(u32, u32)> {
     match image::image_dimensions(photo) {
         Ok(size) => Ok(size),
         #[cfg(feature = "vision")]
-        Err(_) => crate::vision::EncodedPhoto::read(photo).and_then(|p| p.dimensions()).map_err(|e| e.to_string()),
+        Err(_) => Ok(crate::vision::EncodedPhoto::read(photo).and_then(|p| p.dimensions())?),
         #[cfg(not(feature = "vision"))]
-        Err(e) => Err(e.to_string()),
+        Err(e) => Err(e.into()),
     }
 }
 
@@ -214,7 +200,49 @@ fn single(args: &MeasureArgs) -> anyhow::Result<ExitCode> {
         bail!("one fish: give exactly one PHOTO (for many, use --labels or --masks)");
     };
     let size = photo_size(photo).map_err(|why| anyhow::anyhow!("{}: cannot read the photo: {why}", photo.display()))?;
-    let (head, tail, ratio, ends) = match (&args.mask, args.head, args.tail) {
+    let fish = single_fish(args, photo, size)?;
+    let (dot, length) = measure_single(args, &cal, photo, size, &fish)?;
+    if args.json {
+        let document = FishLengthDocument {
+            schema_version: SCHEMA_VERSION,
+            photo: photo.display().to_string(),
+            head_px: px(fish.head_px),
+            tail_px: px(fish.tail_px),
+            dot_px: Some(px(dot)),
+            length: length.clone(),
+            ends: fish.ends.as_ref().map(FishEndsJson::from),
+        };
+        println!("{}", documents::to_text(&document)?);
+    } else {
+        println!(
+            "{}: length {:.1} mm ± {:.1} mm (1-sigma), distance {:.3} m ± {:.1} mm (calibration {:.1} mm, dot {:.1} mm); dot {:.2} px from the laser line",
+            photo.display(),
+            length.length_m * 1e3,
+            length.length_sigma_m * 1e3,
+            length.distance_m,
+            length.distance_sigma_m * 1e3,
+            length.distance_sigma_calibration_m * 1e3,
+            length.distance_sigma_dot_m * 1e3,
+            length.dot_offset_px,
+        );
+        if let Some(e) = &fish.ends {
+            println!("  {}", head_call_text(e.head_call));
+        }
+    }
+    Ok(ExitCode::SUCCESS)
+}
+
+/// The one fish's end points: from `--mask` or from `--head` and `--tail`.
+struct OneFish {
+    head_px: Vec2,
+    tail_px: Vec2,
+    /// Length along the spine over the straight length (1 without a mask).
+    length_over_chord: f64,
+    ends: Option<FishEnds>,
+}
+
+fn single_fish(args: &MeasureArgs, photo: &Path, size: (u32, u32)) -> anyhow::Result<OneFish> {
+    match (&args.mask, args.head, args.tail) {
         (Some(mask), _, _) => {
             let (m, ends) = load_ends(mask)?;
             if (m.width as u32, m.height as u32) != size {
@@ -228,79 +256,47 @@ fn single(args: &MeasureArgs) -> anyhow::Result<ExitCode> {
                     size.1
                 );
             }
-            (ends.head_px, ends.tail_px, ends.length_px / ends.chord_px.max(1e-9), Some(ends))
+            let length_over_chord = ends.length_px / ends.chord_px.max(1e-9);
+            Ok(OneFish { head_px: ends.head_px, tail_px: ends.tail_px, length_over_chord, ends: Some(ends) })
         }
-        (None, Some(h), Some(t)) => (h, t, 1.0, None),
+        (None, Some(head_px), Some(tail_px)) => Ok(OneFish { head_px, tail_px, length_over_chord: 1.0, ends: None }),
         _ => bail!("give --head X,Y and --tail X,Y (or --mask MASK) for the fish"),
-    };
+    }
+}
+
+/// The one fish's dot and length, or an error naming every reason to withhold it.
+fn measure_single(
+    args: &MeasureArgs,
+    cal: &Calibration,
+    photo: &Path,
+    size: (u32, u32),
+    fish: &OneFish,
+) -> anyhow::Result<(Vec2, Length)> {
     let mut flags = Vec::new();
-    flags.extend(camera_body_mismatch(&cal, photo, size, args.allow_other_body));
-    let cut = ends.as_ref().map_or_else(|| ends_at_edge(size, [head, tail], 2.0), |e| e.cut_by_edge);
+    flags.extend(camera_body_mismatch(cal, photo, size, args.allow_other_body));
+    let cut =
+        fish.ends.as_ref().map_or_else(|| ends_at_edge(size, [fish.head_px, fish.tail_px], 2.0), |e| e.cut_by_edge);
     if cut {
         flags.push(Withheld::CutByEdge);
     }
-    let dot = match args.dot {
-        Some(d) => Ok(d),
-        None => search_dot(&cal, photo),
-    };
     let params = MeasureParams {
         dot_sigma_px: args.dot_sigma_px,
         allow_other_body: args.allow_other_body,
         ..MeasureParams::default()
     };
-    let result = dot.clone().and_then(|d| measure(&cal, head, tail, ratio, d, &params));
-    let dot = dot.ok();
-    let length = match (result, flags.is_empty()) {
-        (Ok(l), true) => l,
-        (Err(w), _) => {
-            flags.push(w);
-            bail!(
-                "{}: length withheld: {}",
-                photo.display(),
-                flags.iter().map(Withheld::describe).collect::<Vec<_>>().join("; ")
-            )
-        }
-        (Ok(_), false) => bail!(
-            "{}: length withheld: {}",
-            photo.display(),
-            flags.iter().map(Withheld::describe).collect::<Vec<_>>().join("; ")
-        ),
-    };
-    if args.json {
-        let mut v = json!({
-            "photo": photo.display().to_string(),
-            "head_px": px(head),
-            "tail_px": px(tail),
-            "dot_px": dot.map(px),
-            "length_m": length.length_m,
-            "distance_m": length.distance_m,
-            "length_sigma_m": length.length_sigma_m,
-            "distance_sigma_m": length.distance_sigma_m,
-            "distance_sigma_calibration_m": length.distance_sigma_calibration_m,
-            "distance_sigma_dot_m": length.distance_sigma_dot_m,
-            "dot_offset_px": length.dot_offset_px,
-        });
-        if let Some(e) = &ends {
-            v["ends"] = ends_json(e);
-        }
-        println!("{}", serde_json::to_string_pretty(&v)?);
-    } else {
-        println!(
-            "{}: length {:.1} mm ± {:.1} mm (1-sigma), distance {:.3} m ± {:.1} mm (calibration {:.1} mm, dot {:.1} mm); dot {:.2} px from the laser line",
-            photo.display(),
-            length.length_m * 1e3,
-            length.length_sigma_m * 1e3,
-            length.distance_m,
-            length.distance_sigma_m * 1e3,
-            length.distance_sigma_calibration_m * 1e3,
-            length.distance_sigma_dot_m * 1e3,
-            length.dot_offset_px,
-        );
-        if let Some(e) = &ends {
-            println!("  {}", head_call_text(e.head_call));
-        }
+    let dot = args.dot.map_or_else(|| search_dot(cal, photo), Ok);
+    let result =
+        dot.and_then(|d| Ok((d, measure(cal, fish.head_px, fish.tail_px, fish.length_over_chord, d, &params)?)));
+    match result {
+        Ok(measured) if flags.is_empty() => return Ok(measured),
+        Ok(_) => {}
+        Err(w) => flags.push(w),
     }
-    Ok(ExitCode::SUCCESS)
+    bail!(
+        "{}: length withheld: {}",
+        photo.display(),
+        flags.iter().map(Withheld::describe).collect::<Vec<_>>().join("; ")
+    )
 }
 
 /// One fish of a dive, measured or withheld.
@@ -330,10 +326,23 @@ fn mask_for(dir: &Path, photo: &Path) -> Option<PathBuf> {
         .find(|p| p.is_file() && p.canonicalize().ok() != photo.canonicalize().ok())
 }
 
-/// One fish to measure in a photo: its species, its end points (head, tail, a confidence,
-/// whether the frame cuts it, how the head was called) or why it is withheld, and a dot
-/// given with its labels.
-type FishInPhoto = (Option<String>, Result<(Vec2, Vec2, f64, bool, HeadCall), Withheld>, Option<Vec2>);
+/// A fish's end points as labelled or found in its mask.
+struct EndPoints {
+    head_px: Vec2,
+    tail_px: Vec2,
+    /// Length along the spine over the straight length (1 for labels).
+    length_over_chord: f64,
+    cut_by_edge: bool,
+    head_call: HeadCall,
+}
+
+/// One fish to measure in a photo: its species, its end points or why they are missing,
+/// and a dot given with its labels.
+struct FishInPhoto {
+    species: Option<String>,
+    ends: Result<EndPoints, Withheld>,
+    label_dot: Option<Vec2>,
+}
 
 fn measure_photo(
     cal: &Calibration,
@@ -345,81 +354,111 @@ fn measure_photo(
     let size = photo_size(photo);
     let body = match &size {
         Ok(s) => camera_body_mismatch(cal, photo, *s, params.allow_other_body),
-        Err(e) => Some(Withheld::NoEnds { why: format!("cannot read the photo: {e}") }),
+        Err(e) => Some(Withheld::NoEnds { why: EndsMissing::PhotoUnreadable { message: e.to_string() }.into() }),
     };
-    let hand_dot = || {
-        let name = photo.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
-        dots.iter()
-            .find(|(f, _)| {
-                Path::new(f) == photo || Path::new(f).file_name().is_some_and(|n| n.to_string_lossy() == name)
-            })
-            .map(|d| d.1)
-    };
-    let mut fish: Vec<FishInPhoto> = Vec::new();
-    match source {
-        Ends::Labels(labels) => {
-            for l in labels.iter().filter(|l| l.names_photo(photo)) {
-                let cut = size.as_ref().is_ok_and(|s| ends_at_edge(*s, [l.head_px, l.tail_px], 2.0));
-                fish.push((l.species.clone(), Ok((l.head_px, l.tail_px, 1.0, cut, HeadCall::Labelled)), l.dot_px));
-            }
-        }
-        Ends::Masks(dir) => {
-            let ends = match mask_for(dir, photo) {
-                None => Err(Withheld::NoEnds { why: format!("no mask for it in {}", dir.display()) }),
-                Some(m) => match Mask::load(&m) {
-                    Err(e) => Err(Withheld::NoEnds { why: e.to_string() }),
-                    Ok(mask) if size.as_ref().is_ok_and(|s| *s != (mask.width as u32, mask.height as u32)) => {
-                        Err(Withheld::NoEnds { why: format!("{}: mask size differs from the photo's", m.display()) })
-                    }
-                    Ok(mask) => fish_ends(&mask)
-                        .map(|e| (e.head_px, e.tail_px, e.length_px / e.chord_px.max(1e-9), e.cut_by_edge, e.head_call))
-                        .map_err(|e| Withheld::NoEnds { why: e.to_string() }),
-                },
-            };
-            fish.push((None, ends, None));
-        }
-    }
+    let fish = fish_in_photo(photo, source, size.ok());
+    let hand_dot = hand_dot(photo, dots);
     // One search per photo, however many fish it has.
     let searched = std::cell::OnceCell::new();
     fish.into_iter()
         .enumerate()
-        .map(|(i, (species, ends, label_dot))| {
-            let dot = match label_dot.or_else(hand_dot) {
+        .map(|(i, f)| {
+            let dot = match f.label_dot.or(hand_dot) {
                 Some(d) => Ok(d),
                 None => searched.get_or_init(|| search_dot(cal, photo)).clone(),
             };
-            let mut flags: Vec<Withheld> = body.iter().cloned().collect();
-            let mut row = FishRow {
+            let row = FishRow {
                 photo: photo.to_path_buf(),
                 fish: i + 1,
-                species,
+                species: f.species.clone(),
                 head_px: None,
                 tail_px: None,
                 dot_px: dot.clone().ok(),
                 head_call: None,
                 result: Err(vec![]),
             };
-            let mut length = None;
-            match ends {
-                Err(w) => flags.push(w),
-                Ok((h, t, ratio, cut, call)) => {
-                    (row.head_px, row.tail_px, row.head_call) = (Some(h), Some(t), Some(call));
-                    if cut {
-                        flags.push(Withheld::CutByEdge);
-                    }
-                    match dot.and_then(|d| measure(cal, h, t, ratio, d, params)) {
-                        Err(w) => flags.push(w),
-                        Ok(l) => length = Some(l),
-                    }
-                }
-            }
-            row.result = match length {
-                Some(l) if flags.is_empty() => Ok(l),
-                _ => Err(flags),
-            };
-            row
+            measure_fish(cal, row, f.ends, dot, body.as_ref(), params)
         })
         .collect()
+}
+
+/// The fish `row` with its end points and dot measured, or withheld with every reason.
+fn measure_fish(
+    cal: &Calibration,
+    mut row: FishRow,
+    ends: Result<EndPoints, Withheld>,
+    dot: Result<Vec2, Withheld>,
+    body: Option<&Withheld>,
+    params: &MeasureParams,
+) -> FishRow {
+    let mut flags: Vec<Withheld> = body.into_iter().cloned().collect();
+    let mut length = None;
+    match ends {
+        Err(w) => flags.push(w),
+        Ok(e) => {
+            (row.head_px, row.tail_px, row.head_call) = (Some(e.head_px), Some(e.tail_px), Some(e.head_call));
+            if e.cut_by_edge {
+                flags.push(Withheld::CutByEdge);
+            }
+            match dot.and_then(|d| measure(cal, e.head_px, e.tail_px, e.length_over_chord, d, params)) {
+                Err(w) => flags.push(w),
+                Ok(l) => length = Some(l),
+            }
+        }
+    }
+    row.result = match length {
+        Some(l) if flags.is_empty() => Ok(l),
+        _ => Err(flags),
+    };
+    row
+}
+
+/// The fish in `photo`: every label that names it, or its mask's one fish.
+fn fish_in_photo(photo: &Path, source: &Ends, size: Option<(u32, u32)>) -> Vec<FishInPhoto> {
+    match source {
+        Ends::Labels(labels) => labels
+            .iter()
+            .filter(|l| l.names_photo(photo))
+            .map(|l| FishInPhoto {
+                species: l.species.clone(),
+                ends: Ok(EndPoints {
+                    head_px: l.head_px,
+                    tail_px: l.tail_px,
+                    length_over_chord: 1.0,
+                    cut_by_edge: size.is_some_and(|s| ends_at_edge(s, [l.head_px, l.tail_px], 2.0)),
+                    head_call: HeadCall::Labelled,
+                }),
+                label_dot: l.dot_px,
+            })
+            .collect(),
+        Ends::Masks(dir) => vec![FishInPhoto { species: None, ends: mask_ends(dir, photo, size), label_dot: None }],
+    }
+}
+
+/// The end points of the fish in `photo`'s mask in `dir`.
+fn mask_ends(dir: &Path, photo: &Path, size: Option<(u32, u32)>) -> Result<EndPoints, Withheld> {
+    let no_ends = |why: EndsMissing| Withheld::NoEnds { why: why.into() };
+    let path = mask_for(dir, photo).ok_or_else(|| no_ends(EndsMissing::NoMask { dir: dir.to_path_buf() }))?;
+    let mask = Mask::load(&path).map_err(|e| no_ends(EndsMissing::Mask { message: e.to_string() }))?;
+    if size.is_some_and(|s| s != (mask.width as u32, mask.height as u32)) {
+        return Err(no_ends(EndsMissing::MaskSize { mask: path }));
+    }
+    let e = fish_ends(&mask).map_err(|e| no_ends(EndsMissing::Mask { message: e.to_string() }))?;
+    Ok(EndPoints {
+        head_px: e.head_px,
+        tail_px: e.tail_px,
+        length_over_chord: e.length_px / e.chord_px.max(1e-9),
+        cut_by_edge: e.cut_by_edge,
+        head_call: e.head_call,
+    })
+}
+
+/// A dot given by hand for `photo` (by its path or its file name) in `--dots`.
+fn hand_dot(photo: &Path, dots: &[(String, Vec2)]) -> Option<Vec2> {
+    let name = photo.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
+    dots.iter()
+        .find(|(f, _)| Path::new(f) == photo || Path::new(f).file_name().is_some_and(|n| n.to_string_lossy() == name))
+        .map(|d| d.1)
 }
 
 fn batch(args: &MeasureArgs) -> anyhow::Result<ExitCode> {
@@ -475,16 +514,17 @@ fn batch(args: &MeasureArgs) -> anyhow::Result<ExitCode> {
             .with_context(|| format!("{}: cannot write the summary", out.display()))?;
     }
     if args.json {
-        let v = json!({
-            "calibration": cal.source.display().to_string(),
-            "fish": rows.iter().map(row_json).collect::<Vec<_>>(),
-            "photos_without_fish": unlabelled.iter().map(|p| p.display().to_string()).collect::<Vec<_>>(),
-            "measured": summary.measured,
-            "total": rows.len(),
-            "withheld": summary.withheld,
-            "summary": summary.json(),
-        });
-        println!("{}", serde_json::to_string_pretty(&v)?);
+        let document = LengthsDocument {
+            schema_version: SCHEMA_VERSION,
+            calibration: cal.source.display().to_string(),
+            fish: rows.iter().map(row_document).collect(),
+            photos_without_fish: unlabelled.iter().map(|p| p.display().to_string()).collect(),
+            measured: summary.measured,
+            total: rows.len(),
+            withheld: summary.withheld.iter().map(|(k, n)| (k.to_string(), *n)).collect(),
+            summary: summary.document(),
+        };
+        println!("{}", documents::to_text(&document)?);
     } else {
         print!("{}", table(&rows));
         if !unlabelled.is_empty() {
@@ -500,35 +540,23 @@ fn batch(args: &MeasureArgs) -> anyhow::Result<ExitCode> {
     Ok(ExitCode::SUCCESS)
 }
 
-fn flag_name(w: &Withheld) -> String {
-    serde_json::to_value(w).ok().and_then(|v| v["flag"].as_str().map(String::from)).unwrap_or_default()
-}
-
-fn row_json(r: &FishRow) -> Value {
-    let mut v = json!({
-        "photo": r.photo.display().to_string(),
-        "fish": r.fish,
-        "species": r.species,
-        "head_px": r.head_px.map(px),
-        "tail_px": r.tail_px.map(px),
-        "dot_px": r.dot_px.map(px),
-        "head_call": r.head_call,
-    });
-    match &r.result {
-        Ok(l) => {
-            v["length_m"] = json!(l.length_m);
-            v["distance_m"] = json!(l.distance_m);
-            v["length_sigma_m"] = json!(l.length_sigma_m);
-            v["distance_sigma_m"] = json!(l.distance_sigma_m);
-            v["dot_offset_px"] = json!(l.dot_offset_px);
-            v["flags"] = json!([]);
-        }
-        Err(flags) => {
-            v["length_m"] = Value::Null;
-            v["flags"] = json!(flags);
-        }
+fn row_document(r: &FishRow) -> FishRowJson {
+    let length = r.result.as_ref().ok();
+    FishRowJson {
+        photo: r.photo.display().to_string(),
+        fish: r.fish,
+        species: r.species.clone(),
+        head_px: r.head_px.map(px),
+        tail_px: r.tail_px.map(px),
+        dot_px: r.dot_px.map(px),
+        head_call: r.head_call,
+        length_m: length.map(|l| l.length_m),
+        distance_m: length.map(|l| l.distance_m),
+        length_sigma_m: length.map(|l| l.length_sigma_m),
+        distance_sigma_m: length.map(|l| l.distance_sigma_m),
+        dot_offset_px: length.map(|l| l.dot_offset_px),
+        flags: r.result.as_ref().err().cloned().unwrap_or_default(),
     }
-    v
 }
 
 fn name_of(p: &Path) -> String {
@@ -573,7 +601,7 @@ fn rows_csv(rows: &[FishRow]) -> String {
                 format!("{:.5},{:.5},{:.4},{:.5}", l.length_m, l.length_sigma_m, l.distance_m, l.distance_sigma_m),
                 String::new(),
             ),
-            Err(f) => (",,,".to_string(), f.iter().map(flag_name).collect::<Vec<_>>().join(";")),
+            Err(f) => (",,,".to_string(), f.iter().map(Withheld::flag_name).collect::<Vec<_>>().join(";")),
         };
         s += &format!(
             "{},{},{},{},{},{},{},{}\n",
@@ -593,7 +621,8 @@ fn rows_csv(rows: &[FishRow]) -> String {
 /// The dive's length distribution, overall and per species.
 struct Summary {
     measured: usize,
-    withheld: BTreeMap<String, usize>,
+    /// Withheld fish by flag name.
+    withheld: BTreeMap<&'static str, usize>,
     all: Option<Distribution>,
     species: BTreeMap<String, Distribution>,
 }
@@ -613,7 +642,7 @@ impl Summary {
                 }
                 Err(flags) => {
                     for f in flags {
-                        *withheld.entry(flag_name(f)).or_insert(0) += 1;
+                        *withheld.entry(f.flag_name()).or_insert(0) += 1;
                     }
                 }
             }
@@ -630,20 +659,11 @@ impl Summary {
         self.all.iter().map(|d| ("all", d)).chain(self.species.iter().map(|(k, d)| (k.as_str(), d))).collect()
     }
 
-    fn json(&self) -> Value {
-        let dist = |d: &Distribution| {
-            json!({
-                "n": d.n,
-                "mean_m": d.mean_m,
-                "percentiles_m": d.percentiles_m.iter().map(|(p, v)| (format!("p{p}"), json!(v))).collect::<serde_json::Map<_, _>>(),
-                "bin_width_m": d.bin_width_m,
-                "histogram": d.histogram.iter().map(|(a, b, n)| json!({"from_m": a, "to_m": b, "count": n})).collect::<Vec<_>>(),
-            })
-        };
-        json!({
-            "all": self.all.as_ref().map(dist),
-            "species": self.species.iter().map(|(k, d)| (k.clone(), dist(d))).collect::<serde_json::Map<_, _>>(),
-        })
+    fn document(&self) -> SummaryJson {
+        SummaryJson {
+            all: self.all.as_ref().map(DistributionJson::from),
+            species: self.species.iter().map(|(k, d)| (k.clone(), DistributionJson::from(d))).collect(),
+        }
     }
 
     fn csv(&self) -> String {

@@ -5,6 +5,7 @@ use crate::calibration::change::{self, REFERENCE_FISH_M};
 use crate::units::registry::{Filed, Registry};
 use crate::utc_time;
 use anyhow::Context;
+use fslcal_core::unit_file::FormatError;
 use serde_json::json;
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
@@ -118,6 +119,14 @@ fn age(now: i64, then: i64) -> String {
     }
 }
 
+/// A filed calibration's status as the list shows it: `valid`, or why not.
+fn status_text(status: &Result<(), FormatError>) -> String {
+    match status {
+        Ok(()) => "valid".into(),
+        Err(e) => e.to_string(),
+    }
+}
+
 fn list(registry: &Registry, trust: Option<&Path>, as_json: bool) -> anyhow::Result<ExitCode> {
     let trusted = registry.trusted(trust)?;
     let units = registry.list(&trusted)?;
@@ -134,7 +143,7 @@ fn list(registry: &Registry, trust: Option<&Path>, as_json: bool) -> anyhow::Res
                         "made_utc": utc_time::format_iso(c.made_utc_s),
                         "age_days": (now - c.made_utc_s) as f64 / 86_400.0,
                         "signer": c.signer.to_string(),
-                        "status": match &c.status { Ok(()) => "valid".to_string(), Err(e) => e.clone() },
+                        "status": status_text(&c.status),
                     })),
                     "last_validation": u.last_validation.as_ref().map(|v| json!({
                         "file": v.file.display().to_string(),
@@ -164,7 +173,7 @@ fn list(registry: &Registry, trust: Option<&Path>, as_json: bool) -> anyhow::Res
                 utc_time::format_iso(c.made_utc_s),
                 age(now, c.made_utc_s),
                 c.signer.to_string(),
-                c.status.clone().map_or_else(|e| e, |()| "valid".into()),
+                status_text(&c.status),
             ),
             None => ("-".into(), "-".into(), "-".into(), "no readable calibration".into()),
         };

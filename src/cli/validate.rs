@@ -3,7 +3,8 @@
 use super::body_check::BodyCheckArgs;
 use super::progress;
 use crate::calibration;
-use crate::calibration::validate::{validate, LengthRule, Validation, ValidationJob};
+use crate::calibration::validate::{validate, LengthRule, Validation, ValidationJob, ValidationOutcome};
+use crate::documents::{self, validation::ValidationDocument};
 use crate::dot::candidates::DotDetectorParams;
 use crate::laser::target::TargetArg;
 use crate::photo::identity::ExpectedCamera;
@@ -70,7 +71,7 @@ pub fn run(args: ValidateArgs) -> anyhow::Result<ExitCode> {
         }
     }
     args.body.check(&ExpectedCamera::from(&cal), &args.photos)?;
-    let target = args.target.load().map_err(anyhow::Error::msg)?;
+    let target = args.target.load()?;
     let job = ValidationJob {
         cal,
         target,
@@ -84,7 +85,7 @@ pub fn run(args: ValidateArgs) -> anyhow::Result<ExitCode> {
     bar.finish_and_clear();
     let v = result.context("validation")?;
     if args.json {
-        println!("{}", serde_json::to_string_pretty(&json_report(&v))?);
+        println!("{}", documents::to_text(&ValidationDocument::new(&v, job.cal.unit.clone()))?);
     } else {
         print!("{}", summary(&v));
     }
@@ -117,26 +118,12 @@ fn failure(v: &Validation) -> String {
     why.join("; ")
 }
 
-fn json_report(v: &Validation) -> serde_json::Value {
-    serde_json::json!({
-        "length": v.length_name,
-        "true_mm": v.true_mm,
-        "rule": v.rule,
-        "tolerance_pct": v.tolerance_pct,
-        "photos": v.photos,
-        "error_slope_pct_per_m": v.slope_pct_per_m.map(|s| s.0),
-        "error_slope_sigma_pct_per_m": v.slope_pct_per_m.map(|s| s.1),
-        "trend_fails": v.trend_fails,
-        "pass": v.pass,
-    })
-}
-
 fn name_of(file: &str) -> String {
     Path::new(file).file_name().map_or_else(|| file.to_string(), |n| n.to_string_lossy().into_owned())
 }
 
 fn summary(v: &Validation) -> String {
-    let rule = serde_json::to_value(v.rule).ok().and_then(|r| r.as_str().map(String::from)).unwrap_or_default();
+    let rule = v.rule.as_str();
     let mut s = format!(
         "fslcal validate: length `{}` ({:.1} mm), rule {rule}, tolerance ±{}%\n\n",
         v.length_name, v.true_mm, v.tolerance_pct
@@ -148,11 +135,11 @@ fn summary(v: &Validation) -> String {
     );
     for p in &v.photos {
         let f = |x: Option<f64>, d: usize| x.map_or("-".to_string(), |x| format!("{x:.d$}"));
-        let status = match (p.pass, &p.reason) {
-            (Some(true), _) => "pass".to_string(),
-            (Some(false), _) => "FAIL".to_string(),
-            (None, Some(r)) => format!("skipped: {r}"),
-            (None, None) => "skipped".to_string(),
+        let status = match p.outcome() {
+            ValidationOutcome::Pass => "pass".to_string(),
+            ValidationOutcome::Fail => "FAIL".to_string(),
+            ValidationOutcome::Skipped(why) => format!("skipped: {why}"),
+            ValidationOutcome::Unknown => "skipped".to_string(),
         };
         let inl = p.target_inliers.map_or("-".to_string(), |n| n.to_string());
         s += &format!(

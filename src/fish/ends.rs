@@ -23,7 +23,7 @@
 use super::mask::Mask;
 use super::FishError;
 use fslcal_core::Vec2;
-use serde::Serialize;
+use serde::{Deserialize, Serialize};
 use std::cmp::Reverse;
 use std::collections::{BinaryHeap, VecDeque};
 
@@ -36,7 +36,7 @@ const WORKING_SIZE_PX: usize = 400;
 const MIN_FORK_DEPTH: f64 = 0.015;
 
 /// How the end points were told apart.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
 pub enum HeadCall {
     /// Only one end has a fork notch (and its peduncle does not say otherwise).
@@ -50,7 +50,7 @@ pub enum HeadCall {
 }
 
 /// What the tail end point is.
-#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case", tag = "kind")]
 pub enum TailPoint {
     /// The bottom of the notch between the caudal lobes, `depth_px` behind the lobe tips.

@@ -2,52 +2,168 @@
 //! and the reasons to withhold a number rather than print a wrong one.
 
 use crate::calibration::Calibration;
+use crate::dot::on_line::DotOnLineError;
 use crate::photo::exif::PhotoExif;
 use crate::photo::identity::{check_photo, ExpectedCamera};
+use crate::reason::Reason;
 use fslcal_core::{CameraModel, Vec2};
-use serde::Serialize;
-use std::path::Path;
+use serde::{Deserialize, Serialize};
+use std::fmt;
+use std::path::{Path, PathBuf};
 
-/// Why a fish's length is not given.
-#[derive(Clone, Debug, PartialEq, Serialize)]
+/// Why a fish's length is not given; in JSON an object whose `flag` names the kind.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case", tag = "flag")]
 pub enum Withheld {
     /// No laser dot in the photo (or none clear enough): no distance.
-    NoDot { why: String },
+    NoDot { why: Reason<DotMissing> },
     /// The dot is farther from the calibrated laser's image than the calibration's
     /// uncertainty and the dot's localisation explain: the laser has moved, or the dot is
-    /// a reflection; the calibration does not hold for this photo.
+    /// a reflection; the calibration does not hold for this photo. Pixels.
     DotOffLaserLine { offset_px: f64, allowed_px: f64 },
-    /// The dot's distance lies outside the depths the calibration's dots covered.
+    /// The dot's distance lies outside the depths the calibration's dots covered, metres.
     OutsideCalibratedRange { distance_m: f64, range_m: (f64, f64) },
     /// Part of the fish may be outside the frame.
     CutByEdge,
     /// The photo cannot come from the calibrated camera body (or mode).
-    OtherCameraBody { why: String },
+    OtherCameraBody { why: Reason<BodyMismatch> },
     /// The fish's end points could not be found.
-    NoEnds { why: String },
+    NoEnds { why: Reason<EndsMissing> },
     /// The geometry failed (ray parallel to the laser, pixels outside the model's range).
-    Geometry { why: String },
+    Geometry { why: Reason<GeometryFailure> },
 }
 
 impl Withheld {
+    /// The `flag` the JSON and the CSV name this kind by.
+    pub fn flag_name(&self) -> &'static str {
+        match self {
+            Withheld::NoDot { .. } => "no_dot",
+            Withheld::DotOffLaserLine { .. } => "dot_off_laser_line",
+            Withheld::OutsideCalibratedRange { .. } => "outside_calibrated_range",
+            Withheld::CutByEdge => "cut_by_edge",
+            Withheld::OtherCameraBody { .. } => "other_camera_body",
+            Withheld::NoEnds { .. } => "no_ends",
+            Withheld::Geometry { .. } => "geometry",
+        }
+    }
+
     /// One line for the summary table.
     pub fn describe(&self) -> String {
+        self.to_string()
+    }
+}
+
+impl fmt::Display for Withheld {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         match self {
-            Withheld::NoDot { why } => format!("no laser dot: {why}"),
-            Withheld::DotOffLaserLine { offset_px, allowed_px } => {
-                format!(
-                    "dot {offset_px:.1} px off the laser line (allowed {allowed_px:.1} px): calibration does not hold"
-                )
-            }
+            Withheld::NoDot { why } => write!(f, "no laser dot: {why}"),
+            Withheld::DotOffLaserLine { offset_px, allowed_px } => write!(
+                f,
+                "dot {offset_px:.1} px off the laser line (allowed {allowed_px:.1} px): calibration does not hold"
+            ),
             Withheld::OutsideCalibratedRange { distance_m, range_m } => {
-                format!("distance {distance_m:.2} m outside the calibrated {:.2}-{:.2} m", range_m.0, range_m.1)
+                write!(f, "distance {distance_m:.2} m outside the calibrated {:.2}-{:.2} m", range_m.0, range_m.1)
             }
-            Withheld::CutByEdge => "fish cut by the frame edge".into(),
-            Withheld::OtherCameraBody { why } => format!("another camera: {why}"),
-            Withheld::NoEnds { why } => format!("no end points: {why}"),
-            Withheld::Geometry { why } => why.clone(),
+            Withheld::CutByEdge => f.write_str("fish cut by the frame edge"),
+            Withheld::OtherCameraBody { why } => write!(f, "another camera: {why}"),
+            Withheld::NoEnds { why } => write!(f, "no end points: {why}"),
+            Withheld::Geometry { why } => f.write_str(why),
         }
+    }
+}
+
+/// Why a fish photo has no dot to measure with.
+#[derive(Clone, Debug, PartialEq)]
+pub enum DotMissing {
+    /// The search along the calibrated laser's image found no clear dot.
+    NotFound(DotOnLineError),
+    /// The photo could not be decoded for the search; the decoder's message.
+    Unreadable { message: String },
+    /// This build cannot search photos for dots.
+    NoVision,
+}
+
+impl fmt::Display for DotMissing {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            DotMissing::NotFound(e) => e.fmt(f),
+            DotMissing::Unreadable { message } => f.write_str(message),
+            DotMissing::NoVision => {
+                f.write_str("built without the vision feature, so dots must be given (--dot, --dots or labels)")
+            }
+        }
+    }
+}
+
+/// Why a photo cannot come from the calibrated camera.
+#[derive(Clone, Debug, PartialEq)]
+pub enum BodyMismatch {
+    /// Another image size, pixels: another camera or mode.
+    ImageSize { photo: (u32, u32), calibration: (u32, u32) },
+    /// Another body serial in the photo's EXIF.
+    Serial { photo: String, calibration: String },
+}
+
+impl fmt::Display for BodyMismatch {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            BodyMismatch::ImageSize { photo, calibration } => write!(
+                f,
+                "photo is {}x{}, the calibration is for {}x{}",
+                photo.0, photo.1, calibration.0, calibration.1
+            ),
+            BodyMismatch::Serial { photo, calibration } => {
+                write!(f, "taken with body {photo}, the calibration is for body {calibration}")
+            }
+        }
+    }
+}
+
+/// Why a fish's end points are not known.
+#[derive(Clone, Debug, PartialEq)]
+pub enum EndsMissing {
+    /// The photo itself cannot be read; the reader's message.
+    PhotoUnreadable { message: String },
+    /// No mask in the masks folder names the photo.
+    NoMask { dir: PathBuf },
+    /// The mask is unusable or shows no fish whose ends can be found; the mask's error.
+    Mask { message: String },
+    /// The mask is not the photo's size.
+    MaskSize { mask: PathBuf },
+}
+
+impl fmt::Display for EndsMissing {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            EndsMissing::PhotoUnreadable { message } => write!(f, "cannot read the photo: {message}"),
+            EndsMissing::NoMask { dir } => write!(f, "no mask for it in {}", dir.display()),
+            EndsMissing::Mask { message } => f.write_str(message),
+            EndsMissing::MaskSize { mask } => write!(f, "{}: mask size differs from the photo's", mask.display()),
+        }
+    }
+}
+
+/// Where the geometry of a measurement has no answer.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum GeometryFailure {
+    RayMissesLaser,
+    LaserImageUndefined,
+    EndOutsideModel,
+}
+
+impl fmt::Display for GeometryFailure {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(match self {
+            GeometryFailure::RayMissesLaser => "the dot's ray never meets the laser in front of the camera",
+            GeometryFailure::LaserImageUndefined => "the laser's image is not defined here",
+            GeometryFailure::EndOutsideModel => "an end point is outside the camera model's range",
+        })
+    }
+}
+
+impl From<GeometryFailure> for Withheld {
+    fn from(why: GeometryFailure) -> Self {
+        Withheld::Geometry { why: why.into() }
     }
 }
 
@@ -68,8 +184,9 @@ impl Default for MeasureParams {
     }
 }
 
-/// A length with where it came from.
-#[derive(Clone, Debug, PartialEq, Serialize)]
+/// A length with where it came from: metres, and the dot's offset from the laser's image in
+/// pixels.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct Length {
     pub length_m: f64,
     pub distance_m: f64,
@@ -124,17 +241,10 @@ pub fn measure(
     params: &MeasureParams,
 ) -> Result<Length, Withheld> {
     let camera: &CameraModel = &cal.camera;
-    let geometry = |why: &str| Withheld::Geometry { why: why.to_string() };
-    let fix = cal
-        .laser
-        .fix_from_pixel(camera, dot_px)
-        .ok_or_else(|| geometry("the dot's ray never meets the laser in front of the camera"))?;
+    let fix = cal.laser.fix_from_pixel(camera, dot_px).ok_or(GeometryFailure::RayMissesLaser)?;
     let z = fix.depth_m;
     // Off the line: against the laser image's uncertainty across the line plus the dot's own.
-    let offset_px = cal
-        .laser
-        .pixel_offset(camera, dot_px, 0.05, 50.0)
-        .ok_or_else(|| geometry("the laser's image is not defined here"))?;
+    let offset_px = cal.laser.pixel_offset(camera, dot_px, 0.05, 50.0).ok_or(GeometryFailure::LaserImageUndefined)?;
     let along = match (cal.laser.pixel_at_depth(camera, z * 0.99), cal.laser.pixel_at_depth(camera, z * 1.01)) {
         (Some(a), Some(b)) => (b - a).try_normalize(1e-12),
         _ => None,
@@ -153,9 +263,7 @@ pub fn measure(
             return Err(Withheld::OutsideCalibratedRange { distance_m: z, range_m: (near, far) });
         }
     }
-    let chord_m = camera
-        .length_at_depth(head_px, tail_px, z)
-        .ok_or_else(|| geometry("an end point is outside the camera model's range"))?;
+    let chord_m = camera.length_at_depth(head_px, tail_px, z).ok_or(GeometryFailure::EndOutsideModel)?;
     let length_m = chord_m * length_over_chord;
     // The dot's localisation moves the distance along the laser's image.
     let depth_at = |p: Vec2| cal.laser.fix_from_pixel(camera, p).map(|f| f.depth_m);
@@ -188,18 +296,15 @@ pub fn camera_body_mismatch(
 ) -> Option<Withheld> {
     let want = (cal.camera.width_px, cal.camera.height_px);
     if size != want {
-        return Some(Withheld::OtherCameraBody {
-            why: format!("photo is {}x{}, the calibration is for {}x{}", size.0, size.1, want.0, want.1),
-        });
+        let why = BodyMismatch::ImageSize { photo: size, calibration: want };
+        return Some(Withheld::OtherCameraBody { why: why.into() });
     }
     let expected = ExpectedCamera::from(cal);
     expected.serial.as_ref()?;
     let exif = PhotoExif::read_file(photo);
-    check_photo(&expected, photo, exif.as_ref(), allow_other_body).err().map(|refusal| Withheld::OtherCameraBody {
-        why: format!(
-            "taken with body {}, the calibration is for body {}",
-            refusal.photo_serial, refusal.expected_serial
-        ),
+    check_photo(&expected, photo, exif.as_ref(), allow_other_body).err().map(|refusal| {
+        let why = BodyMismatch::Serial { photo: refusal.photo_serial, calibration: refusal.expected_serial };
+        Withheld::OtherCameraBody { why: why.into() }
     })
 }
 
@@ -274,5 +379,29 @@ mod tests {
         assert!((d.bin_width_m - 0.01).abs() < 1e-12);
         assert_eq!(d.histogram.iter().map(|h| h.2).sum::<usize>(), 101);
         assert!(distribution(&[]).is_none());
+    }
+
+    #[test]
+    fn flags_are_named_as_serde_tags_them_and_read_back() {
+        let all = [
+            Withheld::NoDot { why: DotMissing::NotFound(DotOnLineError::NoDot { half_width_px: 80.0 }).into() },
+            Withheld::DotOffLaserLine { offset_px: 25.3, allowed_px: 3.1 },
+            Withheld::OutsideCalibratedRange { distance_m: 1.03, range_m: (0.5, 0.8) },
+            Withheld::CutByEdge,
+            Withheld::OtherCameraBody {
+                why: BodyMismatch::ImageSize { photo: (800, 600), calibration: (4000, 3000) }.into(),
+            },
+            Withheld::NoEnds { why: EndsMissing::NoMask { dir: "masks".into() }.into() },
+            GeometryFailure::EndOutsideModel.into(),
+        ];
+        for w in &all {
+            let v = serde_json::to_value(w).unwrap();
+            assert_eq!(v["flag"], w.flag_name());
+            let back: Withheld = serde_json::from_value(v.clone()).unwrap();
+            assert_eq!(serde_json::to_value(&back).unwrap(), v);
+            assert_eq!(back.describe(), w.describe());
+        }
+        assert_eq!(serde_json::to_value(&all[4]).unwrap()["why"], "photo is 800x600, the calibration is for 4000x3000");
+        assert_eq!(all[5].describe(), "no end points: no mask for it in masks");
     }
 }

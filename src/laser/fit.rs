@@ -15,10 +15,12 @@
 
 use fslcal_core::{CameraModel, LaserLine, Plane, Vec2, Vec3};
 use nalgebra::{DMatrix, DVector, Matrix4, SymmetricEigen, Vector4};
-use serde::Serialize;
+use serde::{Deserialize, Serialize};
+
+pub use super::outcome::Outlier;
 
 /// Which estimator to use.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, clap::ValueEnum)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize, clap::ValueEnum)]
 #[serde(rename_all = "kebab-case")]
 pub enum Method {
     /// Reprojection-error fit, robust to outlier photos (default).
@@ -71,7 +73,7 @@ pub struct PhotoFit {
     /// Distance of the 3D point from the fitted line, metres.
     pub residual_m: f64,
     /// Whether the fit used it; outliers carry the reason.
-    pub outlier: Option<String>,
+    pub outlier: Option<Outlier>,
 }
 
 /// A fitted laser with its uncertainty and quality figures.
@@ -548,10 +550,7 @@ fn photo_figures(
         let residual_px = q.map_or(f64::INFINITY, |q| (q - px).norm());
         let outlier = match c {
             Some(_) => None,
-            None => Some(format!(
-                "dot {:.1} px off the fitted laser line (gate {:.1} px): a reflection, a glint or a mislabelled dot",
-                residual_px, gates.max_dot_offset_px
-            )),
+            None => Some(Outlier::OffLine { residual_px, gate_px: gates.max_dot_offset_px }),
         };
         if c.is_some() {
             along.push((point - line.origin()).dot(&line.dir()));

@@ -14,22 +14,14 @@ use crate::dot::candidates::{ChannelOrder, ColourView, DotCandidate, DotDetector
 use crate::dot::near_prediction;
 use crate::dot::on_target::{detected_sigma_px, hand_candidate, HAND_DOT_SIGMA_PX};
 use crate::laser::fit::{self, DotObservation, FitError, Gates, LaserFit, Method};
+use crate::reason::Reason;
 use crate::vision::{self, EncodedPhoto, Photo, TargetPose};
-use fslcal_core::{CameraModel, LaserLine, Plane, Vec2};
+use fslcal_core::{CameraModel, LaserLine, Vec2};
 use rayon::prelude::*;
-use serde::Serialize;
 use std::collections::HashMap;
 use std::path::{Path, PathBuf};
 
-/// Where a photo's dot came from.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
-#[serde(rename_all = "kebab-case")]
-pub enum DotSource {
-    Detected,
-    /// Found by the second, more sensitive search near the first fit's prediction.
-    DetectedNearPrediction,
-    Hand,
-}
+pub use super::outcome::{BoardInImage, DotSource, PhotoReport, PhotoStatus, SkipReason, TargetMiss};
 
 /// What was learned from one photo before fitting.
 #[derive(Clone, Debug)]
@@ -100,41 +92,8 @@ impl PixelCrop {
     }
 }
 
-/// Outcome of the per-photo stage: evidence, or the reason the photo cannot be used.
-pub type PhotoResult = Result<PhotoEvidence, String>;
-
-/// Where a photo's target was seen: what the HTML report draws on the thumbnail.
-#[derive(Clone, Debug)]
-pub struct BoardInImage {
-    /// The physical target's outline from its pose, padded as the dot search is, pixels.
-    pub outline_px: Vec<Vec2>,
-    /// A checkerboard's inner corners as refined (a slate has none), pixels.
-    pub corners_px: Vec<Vec2>,
-    /// The target's plane from its pose, camera frame.
-    pub plane: Plane,
-}
-
-/// Per-photo line of the report.
-#[derive(Clone, Debug, Serialize)]
-pub struct PhotoReport {
-    pub file: String,
-    /// "used" or "skipped".
-    pub status: &'static str,
-    pub reason: Option<String>,
-    pub dot_px: Option<[f64; 2]>,
-    pub dot_source: Option<DotSource>,
-    /// Depth of the dot on the board, metres.
-    pub distance_m: Option<f64>,
-    /// Dot's offset from the fitted line's image, pixels.
-    pub residual_px: Option<f64>,
-    /// RMS reprojection error of the board's corners for this photo's pose, pixels.
-    pub board_rms_px: Option<f64>,
-    /// The board as detected, when it was; kept for the HTML report, not the JSON.
-    #[serde(skip)]
-    pub board: Option<BoardInImage>,
-    /// Feature inliers of a slate's match (checkerboards: none).
-    pub target_inliers: Option<usize>,
-}
+/// Outcome of the per-photo stage: evidence, or why the photo's target cannot be used.
+pub type PhotoResult = Result<PhotoEvidence, Reason<TargetMiss>>;
 
 /// Everything `fslcal laser` reports.
 #[derive(Clone, Debug)]
@@ -357,50 +316,35 @@ fn report_photos(paths: &[PathBuf], results: &[PhotoResult], fit: Option<&LaserF
         .enumerate()
         .map(|(i, (path, r))| {
             let file = path.display().to_string();
-            let skipped = |reason: String| PhotoReport {
-                file: file.clone(),
-                status: "skipped",
-                reason: Some(reason),
-                dot_px: None,
-                dot_source: None,
-                distance_m: None,
-                residual_px: None,
-                board_rms_px: None,
-                board: None,
-                target_inliers: None,
-            };
-            let e = match r {
-                Err(reason) => return skipped(reason.clone()),
-                Ok(e) => e,
-            };
-            let mut rep = skipped(String::new());
-            rep.board_rms_px = Some(e.pose.rms_px);
-            rep.board = Some(BoardInImage {
-                outline_px: e.board_outline_px.clone(),
-                corners_px: e.corners_px.clone(),
-                plane: e.pose.plane(),
-            });
-            rep.target_inliers = e.target_inliers;
-            let Some(pf) = fit.and_then(|f| f.photos[i].as_ref()) else {
-                rep.reason = Some(match (e.candidates.is_empty(), fit) {
-                    (true, _) => "no laser dot found on the target".to_string(),
-                    (false, None) => "not fitted (the fit was refused)".to_string(),
-                    (false, Some(_)) => "no usable dot".to_string(),
-                });
-                return rep;
-            };
-            rep.dot_px = Some(pf.dot_px);
-            rep.dot_source = Some(e.dot_source);
-            rep.distance_m = Some(pf.distance_m);
-            rep.residual_px = Some(pf.residual_px);
-            match &pf.outlier {
-                Some(why) => rep.reason = Some(format!("outlier: {why}")),
-                None => {
-                    rep.status = "used";
-                    rep.reason = None;
-                }
+            match r {
+                Err(miss) => PhotoReport::new(file, Some(miss.clone().map(SkipReason::Target))),
+                Ok(e) => report_photo(file, e, fit, fit.and_then(|f| f.photos[i].as_ref())),
             }
-            rep
         })
         .collect()
+}
+
+/// The line of a photo whose target was found: used, an outlier, or why its dot is missing.
+fn report_photo(file: String, e: &PhotoEvidence, fit: Option<&LaserFit>, pf: Option<&fit::PhotoFit>) -> PhotoReport {
+    let why_not = match (pf, e.candidates.is_empty(), fit) {
+        (Some(pf), _, _) => pf.outlier.map(SkipReason::Outlier),
+        (None, true, _) => Some(SkipReason::NoDotOnTarget),
+        (None, false, None) => Some(SkipReason::NotFitted),
+        (None, false, Some(_)) => Some(SkipReason::NoUsableDot),
+    };
+    let mut rep = PhotoReport::new(file, why_not.map(Reason::from));
+    rep.board_rms_px = Some(e.pose.rms_px);
+    rep.board = Some(BoardInImage {
+        outline_px: e.board_outline_px.clone(),
+        corners_px: e.corners_px.clone(),
+        plane: e.pose.plane(),
+    });
+    rep.target_inliers = e.target_inliers;
+    if let Some(pf) = pf {
+        rep.dot_px = Some(pf.dot_px);
+        rep.dot_source = Some(e.dot_source);
+        rep.distance_m = Some(pf.distance_m);
+        rep.residual_px = Some(pf.residual_px);
+    }
+    rep
 }

@@ -4,12 +4,14 @@
 
 use crate::dot::candidates::{ColourView, DotCandidate, DotDetectorParams, SearchRegion};
 use crate::dot::on_target::{self, Surface};
-use crate::vision::{self, EncodedPhoto, Photo, SlateModel, TargetPose};
+use crate::reason::Reason;
+use crate::vision::{self, EncodedPhoto, Photo, SlateMiss, SlateModel, TargetPose, VisionError};
 use calib_targets::Checkerboard;
 use fslcal_core::{CameraModel, Vec2, Vec3};
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
+use super::outcome::{TargetMiss, MAX_BOARD_RMS_PX};
 use super::pipeline::LaserError;
 
 /// A target the chain can find and solve the pose of.
@@ -81,14 +83,25 @@ impl std::str::FromStr for TargetArg {
     }
 }
 
+/// Why a slate named on the command line cannot be used.
+#[derive(Debug, thiserror::Error)]
+pub enum TargetError {
+    /// Its definition cannot be read.
+    #[error(transparent)]
+    Definition(#[from] calib_targets::SlateError),
+    /// Its scan's features cannot be computed.
+    #[error(transparent)]
+    Scan(#[from] VisionError),
+}
+
 impl TargetArg {
     /// Reads a slate's definition and its scan's features; a checkerboard needs nothing.
-    pub fn load(&self) -> Result<Target, String> {
+    pub fn load(&self) -> Result<Target, TargetError> {
         match self {
             TargetArg::Checkerboard(b) => Ok(Target::Checkerboard(*b)),
             TargetArg::Slate(path) => {
-                let slate = calib_targets::Slate::load(path).map_err(|e| e.to_string())?;
-                let model = SlateModel::new(slate, vision::Features::Orb).map_err(|e| e.to_string())?;
+                let slate = calib_targets::Slate::load(path)?;
+                let model = SlateModel::new(slate, vision::Features::Orb)?;
                 Ok(Target::Slate(Arc::new(model)))
             }
         }
@@ -109,21 +122,22 @@ pub struct LocatedTarget {
     pub corners_px: Vec<Vec2>,
 }
 
-/// Finds `target` in the photo at `path` and solves its pose. `Ok(Err(reason))` when the
+/// Finds `target` in the photo at `path` and solves its pose. `Ok(Err(why))` when the
 /// photo cannot be used (the reason omits the file name); `Err` for a photo of the wrong size.
 pub fn locate_target(
     target: &Target,
     camera: &CameraModel,
     path: &Path,
-) -> Result<Result<LocatedTarget, String>, LaserError> {
+) -> Result<Result<LocatedTarget, Reason<TargetMiss>>, LaserError> {
     let file = path.display().to_string();
+    let unreadable = |e: VisionError| TargetMiss::Unreadable { detail: strip_path(&e.to_string(), &file) };
     let encoded = match EncodedPhoto::read(path) {
         Ok(e) => e,
-        Err(e) => return Ok(Err(format!("unreadable: {}", strip_path(&e.to_string(), &file)))),
+        Err(e) => return Ok(Err(unreadable(e).into())),
     };
     let (w, h) = match encoded.dimensions() {
         Ok(d) => d,
-        Err(e) => return Ok(Err(format!("unreadable: {}", strip_path(&e.to_string(), &file)))),
+        Err(e) => return Ok(Err(unreadable(e).into())),
     };
     if (w, h) != (camera.width_px, camera.height_px) {
         return Err(LaserError::ImageSize {
@@ -134,27 +148,36 @@ pub fn locate_target(
             camera_h: camera.height_px,
         });
     }
-    Ok(match target {
+    let located = match target {
         Target::Checkerboard(board) => locate_board(board, camera, &encoded, &file),
-        Target::Slate(model) => match vision::find_slate(model, &encoded, camera) {
-            Ok(d) => {
-                let outline = target_outline_px(
-                    camera,
-                    &model.slate.outline_m(),
-                    0.02 * model.slate.width_m.max(model.slate.height_m),
-                    &d.pose,
-                );
-                Ok(LocatedTarget {
-                    pose: d.pose,
-                    outline_px: outline,
-                    photo: d.photo,
-                    found_at_factor: d.found_at_factor,
-                    inliers: Some(d.inliers),
-                    corners_px: Vec::new(),
-                })
-            }
-            Err(e) => Err(strip_path(&e.to_string(), &file)),
-        },
+        Target::Slate(model) => locate_slate(model, camera, &encoded, &file),
+    };
+    Ok(located.map_err(Reason::from))
+}
+
+fn locate_slate(
+    model: &SlateModel,
+    camera: &CameraModel,
+    encoded: &EncodedPhoto,
+    file: &str,
+) -> Result<LocatedTarget, TargetMiss> {
+    let d = vision::find_slate(model, encoded, camera).map_err(|miss| {
+        let detail = strip_path(&miss.to_string(), file);
+        match miss {
+            SlateMiss::NotFound { .. } | SlateMiss::Weak { .. } => TargetMiss::NoSlate { detail },
+            SlateMiss::Implausible(_) => TargetMiss::SlatePose { detail },
+            SlateMiss::Vision(_) => TargetMiss::Vision { detail },
+        }
+    })?;
+    let slate = &model.slate;
+    let outline = target_outline_px(camera, &slate.outline_m(), 0.02 * slate.width_m.max(slate.height_m), &d.pose);
+    Ok(LocatedTarget {
+        pose: d.pose,
+        outline_px: outline,
+        photo: d.photo,
+        found_at_factor: d.found_at_factor,
+        inliers: Some(d.inliers),
+        corners_px: Vec::new(),
     })
 }
 
@@ -163,29 +186,27 @@ fn locate_board(
     camera: &CameraModel,
     encoded: &EncodedPhoto,
     file: &str,
-) -> Result<LocatedTarget, String> {
+) -> Result<LocatedTarget, TargetMiss> {
     let (cols, rows) = (board.inner_cols, board.inner_rows);
+    let failed = |e: VisionError| TargetMiss::Vision { detail: strip_path(&e.to_string(), file) };
     let search = match vision::find_checkerboard(encoded, cols, rows) {
         Ok(Some(s)) => s,
-        Ok(None) => return Err(format!("no {cols}x{rows} checkerboard found (the whole board must be in the frame)")),
-        Err(e) => return Err(strip_path(&e.to_string(), file)),
+        Ok(None) => return Err(TargetMiss::NoCheckerboard { cols, rows }),
+        Err(e) => return Err(failed(e)),
     };
-    let photo = encoded.decode_full().map_err(|e| strip_path(&e.to_string(), file))?;
+    let photo = encoded.decode_full().map_err(failed)?;
     let mut corners = search.corners_px;
     if let Err(e) = vision::refine_corners(&photo, &mut corners, cols, rows) {
-        return Err(format!("corner refinement failed: {}", e.message));
+        return Err(TargetMiss::CornerRefinement { detail: e.message });
     }
     let object: Vec<Vec3> = board.object_points().iter().map(|p| Vec3::new(p[0], p[1], p[2])).collect();
     let pose = match vision::solve_pose(camera, &object, &corners) {
         Ok(Some(p)) => p,
-        Ok(None) | Err(_) => return Err("the board's pose could not be solved (check the camera file)".into()),
+        Ok(None) | Err(_) => return Err(TargetMiss::PoseUnsolved),
     };
     // A pose whose corners do not reproject is a wrong camera file or a misdetected board.
-    if pose.rms_px > 2.0 {
-        return Err(format!(
-            "the board's corners reproject {:.1} px RMS from their pose (limit 2 px): wrong camera file or a bent board",
-            pose.rms_px
-        ));
+    if pose.rms_px > MAX_BOARD_RMS_PX {
+        return Err(TargetMiss::CornersReproject { rms_px: pose.rms_px });
     }
     let outline = board_outline_px(camera, board, &pose);
     Ok(LocatedTarget {

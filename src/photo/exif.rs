@@ -7,10 +7,10 @@
 //! note's Equipment IFD rather than in EXIF's `BodySerialNumber`. Every read is
 //! bounds-checked: a damaged EXIF block yields fewer fields, never a panic.
 
-use serde::Serialize;
+use serde::{Deserialize, Serialize};
 
 /// The fields fslcal uses. Absent tags stay `None`.
-#[derive(Clone, Debug, Default, PartialEq, Serialize)]
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
 pub struct PhotoExif {
     pub make: Option<String>,
     pub model: Option<String>,

@@ -5,7 +5,7 @@
 use super::plot::{colour, Chart, Layer};
 use super::thumbnail::Overlay;
 use super::{add_plot, file_name, thumbnail_cells, Cell, Page, ReportError, ReportFiles, Verdict};
-use crate::camera::calibrate::{CameraCalibration, CornerResiduals};
+use crate::camera::calibrate::{CameraCalibration, CameraPhotoStatus, CornerResiduals};
 use crate::camera::residuals::FRAME_CORNER_SHARE;
 use calib_targets::Checkerboard;
 use fslcal_core::Vec2;
@@ -21,7 +21,7 @@ fn used(cal: &CameraCalibration) -> impl Iterator<Item = (usize, &CornerResidual
     cal.photos
         .iter()
         .enumerate()
-        .filter(|(_, p)| p.status == "used")
+        .filter(|(_, p)| p.status == CameraPhotoStatus::Used)
         .filter_map(|(i, p)| Some((i, p.corners.as_ref()?)))
 }
 
@@ -73,7 +73,7 @@ fn residual_chart(cal: &CameraCalibration) -> Chart {
 
 fn rms_chart(cal: &CameraCalibration) -> Chart {
     let mut c = Chart::new("RMS per photo (per point)", "photo number", "RMS (px)");
-    let bars = |status: &str| -> Vec<(f64, f64)> {
+    let bars = |status: CameraPhotoStatus| -> Vec<(f64, f64)> {
         cal.photos
             .iter()
             .enumerate()
@@ -81,8 +81,13 @@ fn rms_chart(cal: &CameraCalibration) -> Chart {
             .filter_map(|(i, p)| Some((i as f64, p.rms_px?)))
             .collect()
     };
-    c.layers.push(Layer::Bars { name: "used".into(), bars: bars("used"), width: 0.7, colour: colour::USED });
-    let rejected = bars("rejected");
+    c.layers.push(Layer::Bars {
+        name: "used".into(),
+        bars: bars(CameraPhotoStatus::Used),
+        width: 0.7,
+        colour: colour::USED,
+    });
+    let rejected = bars(CameraPhotoStatus::Rejected);
     if !rejected.is_empty() {
         c.layers.push(Layer::Bars {
             name: "rejected photo".into(),
@@ -135,11 +140,9 @@ fn coverage_chart(cal: &CameraCalibration, board: &Checkerboard) -> Chart {
 pub fn write(dir: &Path, report: &CameraReport) -> Result<PathBuf, ReportError> {
     let cal = report.calibration;
     let cam = &cal.camera;
-    let s = &cal.sigma;
-    let d = cam.distortion;
     let mut page = Page::new("fslcal camera: calibration report");
     let mut files = ReportFiles::default();
-    let no_board = cal.photos.iter().filter(|p| p.status == "no board").count();
+    let no_board = cal.photos.iter().filter(|p| p.status == CameraPhotoStatus::NoBoard).count();
     page.paragraph(&format!(
         "{} photos ({} used, {} rejected, {no_board} without the board); board {}; image {}x{} px.",
         cal.photos.len(),
@@ -149,6 +152,24 @@ pub fn write(dir: &Path, report: &CameraReport) -> Result<PathBuf, ReportError> 
         cam.width_px,
         cam.height_px
     ));
+    verdict(&mut page, cal);
+    key_figures(&mut page, cal);
+    page.heading("Residuals and coverage");
+    let charts = [
+        ("camera-residuals.svg", residual_chart(cal), "Each corner's residual (observed minus projected), magnified. Good: short, random directions everywhere. A swirl or arrows growing towards the edges is distortion the model did not capture; one photo's arrows all pointing one way is a bad pose or a bent board."),
+        ("camera-rms.svg", rms_chart(cal), "RMS per photo. One photo far above the rest is misdetected or blurred; it is rejected when it stands out by the rules in the summary."),
+        ("camera-coverage.svg", coverage_chart(cal, report.board), "The used boards' corner grids over the frame, and the frame-corner zones that must each hold a detected corner."),
+    ];
+    for (name, chart, caption) in charts {
+        add_plot(&mut page, &mut files, name, &chart, caption)?;
+    }
+    photo_section(&mut page, &mut files, report);
+    page.heading("How to read this");
+    page.note("See docs/how-to-calibrate.md in the fslcal repository.");
+    files.write(dir, &page)
+}
+
+fn verdict(page: &mut Page, cal: &CameraCalibration) {
     if cal.coverage.uncovered_frame_corners.is_empty() {
         page.verdict(
             Verdict::Accepted,
@@ -163,6 +184,11 @@ pub fn write(dir: &Path, report: &CameraReport) -> Result<PathBuf, ReportError> 
             ),
         );
     }
+}
+
+fn key_figures(page: &mut Page, cal: &CameraCalibration) {
+    let (cam, s) = (&cal.camera, &cal.sigma);
+    let d = cam.distortion;
     page.heading("Key figures");
     let worst = file_name(&cal.photos[cal.worst_photo].file);
     let rows: Vec<Vec<Cell>> = vec![
@@ -188,17 +214,10 @@ pub fn write(dir: &Path, report: &CameraReport) -> Result<PathBuf, ReportError> 
     ];
     page.table(&["figure", "value"], &[false, false], rows);
     page.note("± is 1-sigma from the fit's covariance with the noise estimated per residual coordinate; OpenCV 4.6's own stdDeviationsIntrinsics are about 1.41x larger.");
+}
 
-    page.heading("Residuals and coverage");
-    let charts = [
-        ("camera-residuals.svg", residual_chart(cal), "Each corner's residual (observed minus projected), magnified. Good: short, random directions everywhere. A swirl or arrows growing towards the edges is distortion the model did not capture; one photo's arrows all pointing one way is a bad pose or a bent board."),
-        ("camera-rms.svg", rms_chart(cal), "RMS per photo. One photo far above the rest is misdetected or blurred; it is rejected when it stands out by the rules in the summary."),
-        ("camera-coverage.svg", coverage_chart(cal, report.board), "The used boards' corner grids over the frame, and the frame-corner zones that must each hold a detected corner."),
-    ];
-    for (name, chart, caption) in charts {
-        add_plot(&mut page, &mut files, name, &chart, caption)?;
-    }
-
+fn photo_section(page: &mut Page, files: &mut ReportFiles, report: &CameraReport) {
+    let (cal, board) = (report.calibration, report.board);
     page.heading("Photos");
     page.note("Drawn on each photo: the detected inner-corner grid (yellow) and corners (orange); corners left out of the solve in red.");
     let overlays: Vec<(&str, Overlay)> = cal
@@ -207,7 +226,7 @@ pub fn write(dir: &Path, report: &CameraReport) -> Result<PathBuf, ReportError> 
         .map(|p| {
             let mut o = Overlay::default();
             if let Some(c) = &p.corners {
-                o.outlines_px.push(grid_outline(&c.corners_px, report.board.inner_cols as usize));
+                o.outlines_px.push(grid_outline(&c.corners_px, board.inner_cols as usize));
                 o.marks_px = c.corners_px.clone();
                 o.bad_marks_px =
                     c.corners_px.iter().zip(&c.inlier).filter(|(_, k)| !**k).map(|(p, _)| *p).collect::<Vec<Vec2>>();
@@ -216,14 +235,13 @@ pub fn write(dir: &Path, report: &CameraReport) -> Result<PathBuf, ReportError> 
         })
         .collect();
     let mut rows = Vec::new();
-    for (p, image) in cal.photos.iter().zip(thumbnail_cells(&mut files, &overlays)) {
+    for (p, image) in cal.photos.iter().zip(thumbnail_cells(files, &overlays)) {
         let status = match p.status {
-            "used" => Cell::Good("used".into()),
-            "rejected" => Cell::Bad("rejected: an outlier photo (its corners disagree with the rest)".into()),
-            _ => Cell::Bad(format!(
-                "skipped: no {}x{} checkerboard found",
-                report.board.inner_cols, report.board.inner_rows
-            )),
+            CameraPhotoStatus::Used => Cell::Good(p.status.to_string()),
+            CameraPhotoStatus::Rejected => Cell::Bad(p.status.explained().into()),
+            CameraPhotoStatus::NoBoard => {
+                Cell::Bad(format!("skipped: no {}x{} checkerboard found", board.inner_cols, board.inner_rows))
+            }
         };
         let corners = match (p.corners_used, p.corners_found) {
             (Some(u), Some(f)) => format!("{u}/{f}"),
@@ -243,7 +261,4 @@ pub fn write(dir: &Path, report: &CameraReport) -> Result<PathBuf, ReportError> 
         &[false, false, false, true, true, true],
         rows,
     );
-    page.heading("How to read this");
-    page.note("See docs/how-to-calibrate.md in the fslcal repository.");
-    files.write(dir, &page)
 }

@@ -9,6 +9,8 @@
 use super::plot::{colour, Chart, Layer, Marker};
 use super::thumbnail::{self, Overlay};
 use super::{add_plot, file_name, thumbnail_cells, Cell, Page, ReportError, ReportFiles, Verdict};
+use crate::calibration::outcome::CheckSkip;
+use crate::reason::Reason;
 use fslcal_core::{CameraModel, LaserLine, Vec2};
 use std::path::{Path, PathBuf};
 
@@ -24,7 +26,7 @@ pub struct CheckPhoto {
     pub threshold_px: Option<f64>,
     pub flag: bool,
     /// Why the photo could not be checked.
-    pub reason: Option<String>,
+    pub reason: Option<Reason<CheckSkip>>,
 }
 
 /// A drift-check run.

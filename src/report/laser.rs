@@ -8,8 +8,9 @@
 use super::plot::{colour, Chart, Layer, Marker};
 use super::thumbnail::{self, Overlay};
 use super::{add_plot, file_name, thumbnail_cells, Cell, Page, ReportError, ReportFiles, Verdict};
-use crate::laser::fit::distance_sigma;
-use crate::laser::pipeline::{LaserCalibration, LaserJob, PhotoReport};
+use crate::laser::fit::{distance_sigma, FitError};
+use crate::laser::gates::GateResult;
+use crate::laser::pipeline::{LaserCalibration, LaserJob, PhotoReport, PhotoStatus};
 use fslcal_core::{CameraModel, LaserLine, Vec2, Vec3};
 use nalgebra::Matrix4;
 use std::path::{Path, PathBuf};
@@ -18,8 +19,8 @@ use std::path::{Path, PathBuf};
 pub enum LaserOutcome<'a> {
     /// A fit, accepted or rejected by its gates.
     Fitted(&'a LaserCalibration),
-    /// No fit could be made; `reason` is the fit's one-line refusal.
-    Refused { reason: String, photos: &'a [PhotoReport] },
+    /// No fit could be made, for `reason`.
+    Refused { reason: &'a FitError, photos: &'a [PhotoReport] },
 }
 
 /// Everything the laser report shows.
@@ -230,7 +231,7 @@ pub fn write(dir: &Path, report: &LaserReport) -> Result<PathBuf, ReportError> {
     };
     let mut page = Page::new("fslcal laser: calibration report");
     let mut files = ReportFiles::default();
-    let used = photos.iter().filter(|p| p.status == "used").count();
+    let used = photos.iter().filter(|p| p.status == PhotoStatus::Used).count();
     page.paragraph(&format!(
         "{} photos ({used} used, {} skipped); target {}; camera file {}.",
         photos.len(),
@@ -238,75 +239,13 @@ pub fn write(dir: &Path, report: &LaserReport) -> Result<PathBuf, ReportError> {
         job.target,
         report.camera_file.display(),
     ));
-
-    match (&report.outcome, cal) {
-        (LaserOutcome::Refused { reason, .. }, _) => {
-            page.verdict(Verdict::Rejected, &format!("NOT FITTED: {reason}"));
-        }
-        (_, Some(cal)) if cal.accepted() => page.verdict(Verdict::Accepted, "ACCEPTED: every gate passes."),
-        (_, Some(cal)) => {
-            let failed: Vec<String> = cal
-                .gates
-                .iter()
-                .filter(|g| !g.pass)
-                .map(|g| format!("{} {} (limit {})", g.name, g.figure, g.limit))
-                .collect();
-            page.verdict(
-                Verdict::Rejected,
-                &format!("REJECTED: {}. No calibration file was written.", failed.join("; ")),
-            );
-        }
-        _ => {}
-    }
-
+    verdict(&mut page, &report.outcome);
     if let Some(cal) = cal {
         let points = photo_points(cal, camera);
         key_figures(&mut page, cal, camera, &points, photos);
-        page.heading("Gates");
-        page.table(
-            &["gate", "figure", "limit", "result"],
-            &[false, true, false, false],
-            cal.gates
-                .iter()
-                .map(|g| {
-                    vec![
-                        g.name.into(),
-                        g.figure.clone().into(),
-                        g.limit.clone().into(),
-                        if g.pass { Cell::Good("pass".into()) } else { Cell::Bad("FAIL".into()) },
-                    ]
-                })
-                .collect(),
-        );
-        page.heading("The dots and the fitted line");
-        page.note(
-            "Each dot is where the camera ray through it meets its photo's board. The across-axis scale is \
-             stretched: a straight row of dots is the laser; a dot off the row is a reflection, a glint or a moved laser.",
-        );
-        let charts = [
-            ("laser-side.svg", view_chart(cal, &points, 1), "Side view: depth against height (y grows down, as in the camera frame)."),
-            ("laser-above.svg", view_chart(cal, &points, 0), "Top view: depth against the sideways offset."),
-            (
-                "residuals.svg",
-                residual_chart(cal, &points, job.gates.max_dot_offset_px),
-                "How far each photo's dot lies from where the fitted line meets its board, in pixels. Used dots must stay under the gate; crosses are outliers left out of the fit.",
-            ),
-            (
-                "distance-error.svg",
-                error_chart(cal, camera, &points, false),
-                "The distance the fitted laser reads from each photo's dot, minus the board's distance from its pose. The band is the calibration's own predicted 1-sigma distance error; points spread wider than it by the dot's localisation.",
-            ),
-            (
-                "length-error.svg",
-                error_chart(cal, camera, &points, true),
-                "The same as a fish-length error: a length scales with its distance (L = D n w / f), so its relative error is the distance's.",
-            ),
-        ];
-        for (name, chart, caption) in charts {
-            add_plot(&mut page, &mut files, name, &chart, caption)?;
-        }
+        gates_table(&mut page, &cal.gates);
+        fit_plots(&mut page, &mut files, job, cal, &points)?;
     }
-
     photo_section(&mut page, &mut files, photos, camera, cal.map(|c| &c.fit.laser));
     page.heading("How to read this");
     page.note(
@@ -314,6 +253,77 @@ pub fn write(dir: &Path, report: &LaserReport) -> Result<PathBuf, ReportError> {
          baseline to expect, and what to do when a calibration is rejected.",
     );
     files.write(dir, &page)
+}
+
+fn verdict(page: &mut Page, outcome: &LaserOutcome) {
+    match outcome {
+        LaserOutcome::Refused { reason, .. } => page.verdict(Verdict::Rejected, &format!("NOT FITTED: {reason}")),
+        LaserOutcome::Fitted(cal) if cal.accepted() => page.verdict(Verdict::Accepted, "ACCEPTED: every gate passes."),
+        LaserOutcome::Fitted(cal) => {
+            let failed: Vec<String> = cal.gates.iter().filter(|g| !g.pass).map(GateResult::failure_text).collect();
+            page.verdict(
+                Verdict::Rejected,
+                &format!("REJECTED: {}. No calibration file was written.", failed.join("; ")),
+            );
+        }
+    }
+}
+
+fn gates_table(page: &mut Page, gates: &[GateResult]) {
+    page.heading("Gates");
+    page.table(
+        &["gate", "figure", "limit", "result"],
+        &[false, true, false, false],
+        gates
+            .iter()
+            .map(|g| {
+                vec![
+                    g.name.as_str().into(),
+                    g.figure.clone().into(),
+                    g.limit.clone().into(),
+                    if g.pass { Cell::Good("pass".into()) } else { Cell::Bad("FAIL".into()) },
+                ]
+            })
+            .collect(),
+    );
+}
+
+fn fit_plots(
+    page: &mut Page,
+    files: &mut ReportFiles,
+    job: &LaserJob,
+    cal: &LaserCalibration,
+    points: &[PhotoPoint],
+) -> Result<(), ReportError> {
+    let camera = &job.camera;
+    page.heading("The dots and the fitted line");
+    page.note(
+        "Each dot is where the camera ray through it meets its photo's board. The across-axis scale is \
+         stretched: a straight row of dots is the laser; a dot off the row is a reflection, a glint or a moved laser.",
+    );
+    let charts = [
+        ("laser-side.svg", view_chart(cal, points, 1), "Side view: depth against height (y grows down, as in the camera frame)."),
+        ("laser-above.svg", view_chart(cal, points, 0), "Top view: depth against the sideways offset."),
+        (
+            "residuals.svg",
+            residual_chart(cal, points, job.gates.max_dot_offset_px),
+            "How far each photo's dot lies from where the fitted line meets its board, in pixels. Used dots must stay under the gate; crosses are outliers left out of the fit.",
+        ),
+        (
+            "distance-error.svg",
+            error_chart(cal, camera, points, false),
+            "The distance the fitted laser reads from each photo's dot, minus the board's distance from its pose. The band is the calibration's own predicted 1-sigma distance error; points spread wider than it by the dot's localisation.",
+        ),
+        (
+            "length-error.svg",
+            error_chart(cal, camera, points, true),
+            "The same as a fish-length error: a length scales with its distance (L = D n w / f), so its relative error is the distance's.",
+        ),
+    ];
+    for (name, chart, caption) in charts {
+        add_plot(page, files, name, &chart, caption)?;
+    }
+    Ok(())
 }
 
 fn key_figures(
@@ -391,12 +401,10 @@ fn photo_section(
     let mut rows = Vec::new();
     for (p, image) in photos.iter().zip(thumbnail_cells(files, &overlays)) {
         let name = file_name(&p.file);
-        let status = match (&p.reason, p.status) {
-            (Some(r), s) => Cell::Bad(format!("{s}: {r}")),
-            (None, s) => Cell::Good(match p.dot_source.and_then(|d| serde_json::to_value(d).ok()) {
-                Some(serde_json::Value::String(src)) => format!("{s} (dot {src})"),
-                _ => s.to_string(),
-            }),
+        let status = match (&p.reason, p.dot_source) {
+            (Some(r), _) => Cell::Bad(format!("{}: {r}", p.status)),
+            (None, Some(src)) => Cell::Good(format!("{} (dot {})", p.status, src.as_str())),
+            (None, None) => Cell::Good(p.status.to_string()),
         };
         rows.push(vec![
             image,

@@ -9,6 +9,8 @@
 use super::plot::{colour, Chart, Layer, Marker};
 use super::thumbnail::Overlay;
 use super::{add_plot, file_name, thumbnail_cells, Cell, Page, ReportError, ReportFiles, Verdict};
+use crate::calibration::outcome::ValidationSkip;
+use crate::reason::Reason;
 use fslcal_core::Vec2;
 use std::path::{Path, PathBuf};
 
@@ -23,7 +25,7 @@ pub struct ValidationPhoto {
     pub error_pct: Option<f64>,
     pub pass: Option<bool>,
     /// Why the photo was not measured.
-    pub reason: Option<String>,
+    pub reason: Option<Reason<ValidationSkip>>,
     /// The measured length's end points and the dot, full-resolution pixels, for the
     /// thumbnail.
     pub ends_px: Option<[Vec2; 2]>,
@@ -177,7 +179,6 @@ pub fn write(dir: &Path, r: &ValidationReport) -> Result<PathBuf, ReportError> {
     let mut page = Page::new("fslcal validate: length check report");
     let mut files = ReportFiles::default();
     let n = measured(r).count();
-    let passed = measured(r).filter(|p| p.pass == Some(true)).count();
     page.paragraph(&format!(
         "{} photos ({n} measured, {} skipped); calibration {}; target {}; tolerance ±{}%.",
         r.photos.len(),
@@ -186,6 +187,22 @@ pub fn write(dir: &Path, r: &ValidationReport) -> Result<PathBuf, ReportError> {
         r.target,
         r.tolerance_pct
     ));
+    verdict_and_figures(&mut page, r);
+    page.heading("Measured against true");
+    for (name, chart, caption) in [
+        ("validate-error.svg", error_chart(r), "Each photo's length error against its distance, with the tolerance band. Errors that climb or fall with distance mean a laser direction error, which a check at one distance misses."),
+        ("validate-measured.svg", measured_vs_true_chart(r), "Measured against true length; the band is the tolerance."),
+    ] {
+        add_plot(&mut page, &mut files, name, &chart, caption)?;
+    }
+    photo_section(&mut page, &mut files, r);
+    files.write(dir, &page)
+}
+
+/// The verdict, with the trend's, and the length error's mean, RMS and worst.
+fn verdict_and_figures(page: &mut Page, r: &ValidationReport) {
+    let n = measured(r).count();
+    let passed = measured(r).filter(|p| p.pass == Some(true)).count();
     let trend = match r.trend_pct_per_m {
         Some((s, true)) => format!("; length error trend {s:+.2} %/m"),
         Some((s, false)) => format!("; length error trend {s:+.2} %/m FAILS: the laser direction is off"),
@@ -201,29 +218,26 @@ pub fn write(dir: &Path, r: &ValidationReport) -> Result<PathBuf, ReportError> {
         ),
     );
     let errors: Vec<f64> = measured(r).filter_map(|p| p.error_pct).collect();
-    if !errors.is_empty() {
-        let k = errors.len() as f64;
-        let mean = errors.iter().sum::<f64>() / k;
-        let rms = (errors.iter().map(|e| e * e).sum::<f64>() / k).sqrt();
-        let worst = errors.iter().copied().fold(0.0f64, |a, e| if e.abs() > a.abs() { e } else { a });
-        page.table(
-            &["figure", "value"],
-            &[false, false],
-            vec![
-                vec!["length error, mean".into(), format!("{mean:+.2}%").into()],
-                vec!["length error, RMS".into(), format!("{rms:.2}%").into()],
-                vec!["worst".into(), format!("{worst:+.2}%").into()],
-                vec!["within tolerance".into(), format!("{passed} of {n}").into()],
-            ],
-        );
+    if errors.is_empty() {
+        return;
     }
-    page.heading("Measured against true");
-    for (name, chart, caption) in [
-        ("validate-error.svg", error_chart(r), "Each photo's length error against its distance, with the tolerance band. Errors that climb or fall with distance mean a laser direction error, which a check at one distance misses."),
-        ("validate-measured.svg", measured_vs_true_chart(r), "Measured against true length; the band is the tolerance."),
-    ] {
-        add_plot(&mut page, &mut files, name, &chart, caption)?;
-    }
+    let k = errors.len() as f64;
+    let mean = errors.iter().sum::<f64>() / k;
+    let rms = (errors.iter().map(|e| e * e).sum::<f64>() / k).sqrt();
+    let worst = errors.iter().copied().fold(0.0f64, |a, e| if e.abs() > a.abs() { e } else { a });
+    page.table(
+        &["figure", "value"],
+        &[false, false],
+        vec![
+            vec!["length error, mean".into(), format!("{mean:+.2}%").into()],
+            vec!["length error, RMS".into(), format!("{rms:.2}%").into()],
+            vec!["worst".into(), format!("{worst:+.2}%").into()],
+            vec!["within tolerance".into(), format!("{passed} of {n}").into()],
+        ],
+    );
+}
+
+fn photo_section(page: &mut Page, files: &mut ReportFiles, r: &ValidationReport) {
     page.heading("Photos");
     page.note(
         "Drawn on each photo: the detected target (yellow), the measured length (green) and the laser dot (red ring).",
@@ -241,7 +255,7 @@ pub fn write(dir: &Path, r: &ValidationReport) -> Result<PathBuf, ReportError> {
         })
         .collect();
     let mut rows = Vec::new();
-    for (p, image) in r.photos.iter().zip(thumbnail_cells(&mut files, &overlays)) {
+    for (p, image) in r.photos.iter().zip(thumbnail_cells(files, &overlays)) {
         let status = match (&p.reason, p.pass) {
             (Some(why), _) => Cell::Bad(format!("skipped: {why}")),
             (None, Some(true)) => Cell::Good("pass".into()),
@@ -263,7 +277,6 @@ pub fn write(dir: &Path, r: &ValidationReport) -> Result<PathBuf, ReportError> {
         &[false, false, false, true, true, true, true],
         rows,
     );
-    files.write(dir, &page)
 }
 
 #[cfg(test)]
@@ -294,7 +307,7 @@ mod tests {
                 photo("b.jpg", 2.1, 190.0, false),
                 ValidationPhoto {
                     file: "c.jpg".into(),
-                    reason: Some("no laser dot found".into()),
+                    reason: Some(ValidationSkip::NoDot.into()),
                     ..ValidationPhoto::default()
                 },
             ],

@@ -12,6 +12,8 @@
 //! deleted, so the folder is the unit's history.
 
 use crate::atomic_file::write_atomically;
+use crate::documents::validation::ValidationDocument;
+use crate::documents::{check_schema, NewerSchema};
 use crate::units::keys::{self, KeyError, TrustedKey};
 use crate::units::signed_file::{self, unit_id, UnitFileError};
 use crate::utc_time;
@@ -30,6 +32,8 @@ pub enum RegistryError {
     Conflict { path: String },
     #[error("{path}: not a validation report (expected the JSON of `fslcal validate --json`, with a boolean `pass`)")]
     NotAReport { path: String },
+    #[error("{path}: {cause}")]
+    NewerReport { path: String, cause: NewerSchema },
     #[error("{path}: the report names no unit; give it with --unit FSL-NN")]
     ReportWithoutUnit { path: String },
 }
@@ -61,8 +65,8 @@ pub struct CurrentCalibration {
     pub file: PathBuf,
     pub made_utc_s: i64,
     pub signer: KeyId,
-    /// `Ok` when intact and signed by a trusted key; the reason otherwise.
-    pub status: Result<(), String>,
+    /// `Ok` when intact and signed by a trusted key; why not otherwise.
+    pub status: Result<(), FormatError>,
 }
 
 #[derive(Debug)]
@@ -113,11 +117,9 @@ impl Registry {
     pub fn add_validation(&self, report: &Path, unit: Option<&str>) -> Result<(PathBuf, String, bool), RegistryError> {
         let name = report.display().to_string();
         let text = std::fs::read(report).map_err(Self::io(report, "read"))?;
-        let json: serde_json::Value =
-            serde_json::from_slice(&text).map_err(|_| RegistryError::NotAReport { path: name.clone() })?;
-        let pass =
-            json.get("pass").and_then(|p| p.as_bool()).ok_or(RegistryError::NotAReport { path: name.clone() })?;
-        let unit = match unit.or_else(|| json.get("unit").and_then(|u| u.as_str())) {
+        let doc = read_report(&text, &name)?;
+        let pass = doc.pass;
+        let unit = match unit.or(doc.unit.as_deref()) {
             Some(u) => unit_id(u)?,
             None => return Err(RegistryError::ReportWithoutUnit { path: name }),
         };
@@ -168,8 +170,8 @@ fn read_current(path: &Path, trusted: &[TrustedKey]) -> Option<CurrentCalibratio
     let f = SignedUnitFile::decode(&bytes).ok()?;
     let keys: Vec<[u8; 32]> = trusted.iter().map(|t| t.key).collect();
     let status = match f.check_signature() {
-        Err(e) => Err(e.to_string()),
-        Ok(()) if !keys.contains(&f.signer) => Err(FormatError::UnknownSigner(f.key_id()).to_string()),
+        Err(e) => Err(e),
+        Ok(()) if !keys.contains(&f.signer) => Err(FormatError::UnknownSigner(f.key_id())),
         Ok(()) => Ok(()),
     };
     Some(CurrentCalibration { file: path.to_path_buf(), made_utc_s: f.contents.made_utc_s, signer: f.key_id(), status })
@@ -189,6 +191,14 @@ fn read_validation(path: &Path) -> Option<ValidationRecord> {
         &compact[13..15]
     );
     let filed_utc_s = utc_time::parse_iso(&iso)?;
-    let json: serde_json::Value = serde_json::from_slice(&std::fs::read(path).ok()?).ok()?;
-    Some(ValidationRecord { file: path.to_path_buf(), filed_utc_s, pass: json.get("pass")?.as_bool()? })
+    let doc = read_report(&std::fs::read(path).ok()?, "").ok()?;
+    Some(ValidationRecord { file: path.to_path_buf(), filed_utc_s, pass: doc.pass })
+}
+
+/// A validation report (the file `name`) of a schema this build reads.
+fn read_report(bytes: &[u8], name: &str) -> Result<ValidationDocument, RegistryError> {
+    let doc: ValidationDocument =
+        serde_json::from_slice(bytes).map_err(|_| RegistryError::NotAReport { path: name.to_string() })?;
+    check_schema(doc.schema_version).map_err(|cause| RegistryError::NewerReport { path: name.to_string(), cause })?;
+    Ok(doc)
 }

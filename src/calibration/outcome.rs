@@ -1,0 +1,206 @@
+//! What `fslcal validate` and `fslcal check` say about each photo: measured and within the
+//! tolerance or not, on the calibrated line or flagged, or why the photo could not be used.
+//!
+//! These are the per-photo lines of their JSON documents too (`documents::validation`,
+//! `documents::check`), so they build without the `vision` feature: the registry reads a
+//! validation report without OpenCV.
+
+use crate::dot::on_line::DotOnLineError;
+use crate::laser::outcome::TargetMiss;
+use crate::reason::Reason;
+use fslcal_core::Vec2;
+use serde::{Deserialize, Serialize};
+use std::fmt;
+
+/// How the two end points of a validation's known length are put into 3D.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize, clap::ValueEnum)]
+#[serde(rename_all = "kebab-case")]
+pub enum LengthRule {
+    /// The plane through the dot's 3D point with the target's detected orientation
+    /// (orientation only, no distance): judges the calibration, not the photo's tilt.
+    TiltedPlane,
+    /// The thesis's rule: both ends at the dot's depth, as for a fish.
+    FrontoParallel,
+}
+
+impl LengthRule {
+    /// The rule's name as the option and the JSON spell it.
+    pub fn as_str(self) -> &'static str {
+        match self {
+            LengthRule::TiltedPlane => "tilted-plane",
+            LengthRule::FrontoParallel => "fronto-parallel",
+        }
+    }
+}
+
+/// Why a photo could not be measured by `fslcal validate`.
+#[derive(Clone, Debug, PartialEq)]
+pub enum ValidationSkip {
+    /// No usable target in the photo.
+    Target(TargetMiss),
+    /// No dot-like blob on the target near the calibrated laser's image.
+    NoDot,
+    /// The best blob's distance by the laser disagrees with the target's plane there,
+    /// metres: not the dot, or a badly wrong calibration.
+    NotTheDot { by_laser_m: f64, on_target_m: f64 },
+    /// The known length's end points project behind the camera.
+    EndsBehindCamera,
+    /// The end points' rays do not meet the plane.
+    EndsOffPlane,
+}
+
+impl fmt::Display for ValidationSkip {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            ValidationSkip::Target(miss) => miss.fmt(f),
+            ValidationSkip::NoDot => f.write_str("no laser dot found on the target near the calibrated laser's image"),
+            ValidationSkip::NotTheDot { by_laser_m, on_target_m } => write!(
+                f,
+                "the best dot-like blob gives {by_laser_m:.2} m by the laser but lies on the target at {on_target_m:.2} m: not the dot, or a badly wrong calibration"
+            ),
+            ValidationSkip::EndsBehindCamera => f.write_str("the length's end points are behind the camera"),
+            ValidationSkip::EndsOffPlane => f.write_str("the length's end points could not be put on the plane"),
+        }
+    }
+}
+
+/// What became of one photo in a validation.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum ValidationOutcome<'a> {
+    Pass,
+    Fail,
+    Skipped(&'a Reason<ValidationSkip>),
+    /// Neither measured nor given a reason: a line read from a document missing both.
+    Unknown,
+}
+
+/// One photo's line of a validation (`photos` in `fslcal validate --json`).
+#[derive(Clone, Debug, Default, Serialize, Deserialize)]
+pub struct PhotoValidation {
+    pub file: String,
+    /// The known length as measured, millimetres.
+    pub measured_mm: Option<f64>,
+    pub true_mm: f64,
+    /// (measured - true) / true, percent.
+    pub error_pct: Option<f64>,
+    /// Within the tolerance; `None` for a skipped photo.
+    pub pass: Option<bool>,
+    /// Depth of the dot by the calibration, metres.
+    pub distance_m: Option<f64>,
+    pub dot_px: Option<[f64; 2]>,
+    /// Feature inliers of a slate's match (checkerboards: none).
+    pub target_inliers: Option<usize>,
+    /// Why a skipped photo was skipped.
+    pub reason: Option<Reason<ValidationSkip>>,
+    /// The target's outline and the length's end points in the image, pixels; kept for the
+    /// HTML report, not the JSON.
+    #[serde(skip)]
+    pub target_outline_px: Vec<Vec2>,
+    #[serde(skip)]
+    pub ends_px: Option<[Vec2; 2]>,
+}
+
+impl PhotoValidation {
+    pub fn outcome(&self) -> ValidationOutcome<'_> {
+        match (self.pass, &self.reason) {
+            (Some(true), _) => ValidationOutcome::Pass,
+            (Some(false), _) => ValidationOutcome::Fail,
+            (None, Some(why)) => ValidationOutcome::Skipped(why),
+            (None, None) => ValidationOutcome::Unknown,
+        }
+    }
+}
+
+/// Why a photo could not be checked by `fslcal check`.
+#[derive(Clone, Debug, PartialEq)]
+pub enum CheckSkip {
+    /// The photo cannot be read or decoded; the reader's message without the path.
+    Unreadable { detail: String },
+    /// No clear dot along the calibrated laser's image.
+    NoDot(DotOnLineError),
+}
+
+impl fmt::Display for CheckSkip {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            CheckSkip::Unreadable { detail } => f.write_str(detail),
+            CheckSkip::NoDot(e) => e.fmt(f),
+        }
+    }
+}
+
+/// What became of one photo in a drift check.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum CheckOutcome<'a> {
+    /// The dot is as near the calibrated line as the uncertainties explain.
+    Within,
+    /// The dot is off the line beyond `FLAG_SIGMAS`.
+    Flagged,
+    Skipped(&'a Reason<CheckSkip>),
+}
+
+/// One photo's line of a drift check (`photos` in `fslcal check --json`).
+#[derive(Clone, Debug, Default, Serialize, Deserialize)]
+pub struct PhotoCheck {
+    pub file: String,
+    pub dot_px: Option<[f64; 2]>,
+    /// Perpendicular distance of the dot from the calibrated line's image, pixels.
+    pub offset_px: Option<f64>,
+    /// What the calibration and the dot's localisation explain, 1 sigma, pixels.
+    pub explained_sigma_px: Option<f64>,
+    pub flag: bool,
+    /// Depth of the dot by the calibration, metres.
+    pub distance_m: Option<f64>,
+    /// Angle at the laser's origin between the calibrated beam and the dot, degrees; the
+    /// median over the photos is the document's `implied_direction_change_deg`.
+    #[serde(skip)]
+    pub direction_change_deg: Option<f64>,
+    /// Why the photo could not be checked.
+    pub reason: Option<Reason<CheckSkip>>,
+}
+
+impl PhotoCheck {
+    pub fn outcome(&self) -> CheckOutcome<'_> {
+        match (&self.reason, self.flag) {
+            (Some(why), _) => CheckOutcome::Skipped(why),
+            (None, true) => CheckOutcome::Flagged,
+            (None, false) => CheckOutcome::Within,
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn lines_read_back_what_they_wrote_and_keep_the_sentences() {
+        let p = PhotoValidation {
+            file: "a.jpg".into(),
+            true_mm: 548.2,
+            reason: Some(ValidationSkip::NotTheDot { by_laser_m: 1.234, on_target_m: 2.0 }.into()),
+            ..PhotoValidation::default()
+        };
+        let v = serde_json::to_value(&p).unwrap();
+        assert_eq!(
+            v["reason"],
+            "the best dot-like blob gives 1.23 m by the laser but lies on the target at 2.00 m: not the dot, or a badly wrong calibration"
+        );
+        assert!(v["pass"].is_null() && v.get("ends_px").is_none());
+        let back: PhotoValidation = serde_json::from_value(v.clone()).unwrap();
+        assert_eq!(serde_json::to_value(&back).unwrap(), v);
+        assert!(matches!(back.outcome(), ValidationOutcome::Skipped(_)));
+
+        let c = PhotoCheck {
+            file: "b.jpg".into(),
+            reason: Some(CheckSkip::NoDot(DotOnLineError::Ambiguous { count: 11 }).into()),
+            ..PhotoCheck::default()
+        };
+        let v = serde_json::to_value(&c).unwrap();
+        assert_eq!(v["reason"], "11 faint dot-like blobs on the laser's image and no clear dot; give the dot by hand");
+        assert!(v.get("direction_change_deg").is_none());
+        let back: PhotoCheck = serde_json::from_value(v.clone()).unwrap();
+        assert_eq!(serde_json::to_value(&back).unwrap(), v);
+        assert_eq!(serde_json::to_value(LengthRule::FrontoParallel).unwrap(), LengthRule::FrontoParallel.as_str());
+    }
+}
