@@ -18,7 +18,7 @@ use crate::report::{
 use crate::units::keys;
 use crate::utc_time;
 use anyhow::{bail, Context};
-use fslcal_core::unit_file::{CameraIdentity, FitMethod, FitQuality, UnitFile};
+use fslcal_core::unit_file::{CameraIdentity, FitMethod, FitQuality, Provenance, UnitFile};
 use fslcal_core::CameraModel;
 use serde_json::json;
 use std::path::{Path, PathBuf};
@@ -313,6 +313,9 @@ fn unit_contents<'a>(target: &'a str, camera: &CameraModel, cal: &LaserCalibrati
             Method::Average => FitMethod::Average,
         },
         target: Some(target),
+        provenance: Provenance::Fitted,
+        // Not learned yet: the dot model that learns it fills this in.
+        laser_colour: None,
     }
 }
 
