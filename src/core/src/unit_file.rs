@@ -352,7 +352,11 @@ impl<'a> UnitFile<'a> {
         }
         if let Some(c) = &self.laser_colour {
             let norm = c.rgb.iter().map(|v| v * v).sum::<f32>().sqrt();
-            if !c.rgb.iter().all(|v| v.is_finite()) || (norm - 1.0).abs() > 1e-3 || !(c.spread_rad >= 0.0) {
+            if !c.rgb.iter().all(|v| v.is_finite())
+                || (norm - 1.0).abs() > 1e-3
+                || !c.spread_rad.is_finite()
+                || c.spread_rad < 0.0
+            {
                 return Err("laser colour not a unit vector with a spread");
             }
         }
