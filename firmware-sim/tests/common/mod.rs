@@ -47,7 +47,7 @@ pub fn truncated_file() -> Vec<u8> {
 /// Version byte raised past the newest: what a future fslcal would write.
 pub fn newer_format_file() -> Vec<u8> {
     let mut f = good_file();
-    f[4] = fslcal_core::unit_file::VERSION + 1;
+    f[4] = unit_file::VERSION + 1;
     f
 }
 
