@@ -1,15 +1,22 @@
 //! The worked example in `docs/calib-format.md` is the format: this test rebuilds the example
 //! file (fixed contents, fixed key, fixed time) and compares it with the spec's annotated hex
-//! dump byte for byte, and checks that the dump's offsets and lengths add up.
+//! dump byte for byte, and checks that the dump's offsets and lengths add up. The spec's
+//! version 1 dump (as version 1 wrote the example) must still decode and verify.
 
 use fslcal_core::unit_file::{self, SignedUnitFile, EXAMPLE_SECRET_KEY, MAX_FILE_BYTES};
 
 const SPEC: &str = include_str!("../docs/calib-format.md");
 
-/// The bytes of the spec's ```hexdump block. Each line is `OFFSET  HEX BYTES  [comment]`,
-/// the offset in hex; comments are separated from the bytes by two or more spaces.
+/// The bytes of the spec's ```hexdump block (the current version). Each line is
+/// `OFFSET  HEX BYTES  [comment]`, the offset in hex; comments are separated from the bytes
+/// by two or more spaces.
 fn spec_bytes() -> Vec<u8> {
-    let start = SPEC.find("```hexdump\n").expect("the spec has a ```hexdump block") + "```hexdump\n".len();
+    dump_bytes("```hexdump\n")
+}
+
+/// The bytes of the block that starts with `fence`.
+fn dump_bytes(fence: &str) -> Vec<u8> {
+    let start = SPEC.find(fence).unwrap_or_else(|| panic!("the spec has a {fence} block")) + fence.len();
     let end = start + SPEC[start..].find("```").expect("the hexdump block ends");
     let mut bytes = Vec::new();
     for line in SPEC[start..end].lines().filter(|l| !l.trim().is_empty()) {
@@ -42,8 +49,21 @@ fn the_spec_example_decodes_to_the_example() {
     let bytes = spec_bytes();
     let f = unit_file::verify(&bytes, &[unit_file::public_key(&EXAMPLE_SECRET_KEY)]).unwrap();
     assert_eq!(f.contents, unit_file::example());
-    assert_eq!(f.version, 1);
+    assert_eq!(f.version, unit_file::VERSION);
     assert_eq!(f.key_id().to_string(), SignedUnitFile::decode(&bytes).unwrap().key_id().to_string());
     // The size the spec states.
     assert!(SPEC.contains(&format!("{} bytes", bytes.len())), "the spec should state the example's size");
+}
+
+#[test]
+fn the_spec_version_1_example_still_decodes_and_verifies() {
+    let bytes = dump_bytes("```hexdump-v1\n");
+    assert_eq!(bytes[4], 1, "the block is a version 1 file");
+    assert!(SPEC.contains(&format!("{} bytes", bytes.len())), "the spec should state the version 1 example's size");
+    let f = unit_file::verify(&bytes, &[unit_file::public_key(&EXAMPLE_SECRET_KEY)]).unwrap();
+    assert_eq!(f.version, 1);
+    // Version 1 knew neither field: a fitted calibration with no learned colour.
+    let expected =
+        unit_file::UnitFile { provenance: unit_file::Provenance::Fitted, laser_colour: None, ..unit_file::example() };
+    assert_eq!(f.contents, expected);
 }

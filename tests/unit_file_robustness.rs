@@ -65,10 +65,10 @@ fn every_single_byte_change_fails_verification() {
     assert_eq!(tried, 3 * file.len());
     // The header's fields are told apart from tampering where the bytes allow it.
     let mut newer = file.clone();
-    newer[4] = 2;
+    newer[4] = unit_file::VERSION + 1;
     assert_eq!(
         unit_file::verify(&newer, &trusted()).unwrap_err(),
-        FormatError::NewerVersion { found: 2, supported: 1 }
+        FormatError::NewerVersion { found: unit_file::VERSION + 1, supported: unit_file::VERSION }
     );
     let mut magic = file.clone();
     magic[0] ^= 0x01;

@@ -49,8 +49,8 @@ fn each_bad_file_reaches_its_own_reason() {
         (
             "newer format",
             newer_format_file(),
-            Rejection::NewerFormat { found: 2, supported: 1 },
-            ["NEWER FORMAT", "file v2, reads v1", "update the firmware"],
+            Rejection::NewerFormat { found: 3, supported: 2 },
+            ["NEWER FORMAT", "file v3, reads v2", "update the firmware"],
         ),
         (
             "truncated",
@@ -87,7 +87,7 @@ fn each_bad_file_reaches_its_own_reason() {
     assert_eq!(lines[0], "unit   FSL-03");
     assert_eq!(lines[1], "cal 2026-06-01 176 d");
     assert_eq!(lines[2], "signer example-key");
-    assert_eq!(lines[4], format!("file v1 {} B", good_file().len()));
+    assert_eq!(lines[4], format!("file v{} {} B", unit_file::VERSION, good_file().len()));
 }
 
 #[test]

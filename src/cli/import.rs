@@ -6,7 +6,7 @@ use crate::units::lab_pkg::{LaserPkg, LensPkg};
 use crate::units::signed_file;
 use crate::utc_time;
 use anyhow::Context;
-use fslcal_core::unit_file::{FitMethod, UnitFile};
+use fslcal_core::unit_file::{FitMethod, Provenance, UnitFile};
 use fslcal_core::{CameraModel, LaserLine, Vec3};
 use serde_json::json;
 use std::path::{Path, PathBuf};
@@ -98,6 +98,8 @@ pub fn run(args: ImportArgs) -> anyhow::Result<ExitCode> {
         fit: None,
         method: FitMethod::Imported,
         target: None,
+        provenance: Provenance::LabPkg,
+        laser_colour: None,
     };
     let size = signed_file::sign_to_file(&contents, &key, &args.out)?;
     if args.json {

@@ -21,7 +21,7 @@ use crate::report::{
 use crate::units::keys;
 use crate::utc_time;
 use anyhow::{bail, Context};
-use fslcal_core::unit_file::{CameraIdentity, FitMethod, FitQuality, UnitFile};
+use fslcal_core::unit_file::{CameraIdentity, FitMethod, FitQuality, Provenance, UnitFile};
 use fslcal_core::CameraModel;
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
@@ -327,6 +327,9 @@ fn unit_contents<'a>(target: &'a str, camera: &CameraModel, cal: &LaserCalibrati
             Method::Average => FitMethod::Average,
         },
         target: Some(target),
+        provenance: Provenance::Fitted,
+        // Not learned yet: the dot model that learns it fills this in.
+        laser_colour: None,
     }
 }
 

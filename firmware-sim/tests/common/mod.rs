@@ -44,10 +44,10 @@ pub fn truncated_file() -> Vec<u8> {
     good_file()[..300].to_vec()
 }
 
-/// Version byte raised to 2: what a future fslcal would write.
+/// Version byte raised past the newest: what a future fslcal would write.
 pub fn newer_format_file() -> Vec<u8> {
     let mut f = good_file();
-    f[4] = 2;
+    f[4] = unit_file::VERSION + 1;
     f
 }
 

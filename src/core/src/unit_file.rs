@@ -19,7 +19,7 @@ use sha2::{Digest, Sha256};
 /// The first four bytes of every calibration file.
 pub const MAGIC: [u8; 4] = *b"FSLC";
 /// The newest format version this build writes and reads; it reads every older one too.
-pub const VERSION: u8 = 1;
+pub const VERSION: u8 = 2;
 /// Magic, version and the total length, in every version.
 pub const HEADER_BYTES: usize = 7;
 pub const SIGNATURE_BYTES: usize = 64;
@@ -131,6 +131,47 @@ impl FitMethod {
     }
 }
 
+/// Where a calibration came from: fitted by fslcal from photos, or imported from the
+/// FishSense lab's own files. Version 1 files record only "imported" (`FitMethod`), which
+/// could then only mean a `.pkg`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+pub enum Provenance {
+    /// Fitted by fslcal from calibration photos.
+    Fitted,
+    /// Imported from the lab's `.pkg` archives (lens and laser calibration).
+    LabPkg,
+    /// Imported from the lab's API JSON (`CameraIntrinsics`, `LaserExtrinsics`).
+    LabApi,
+}
+
+impl Provenance {
+    /// The name the JSON outputs and `fslcal inspect` use.
+    pub fn name(self) -> &'static str {
+        match self {
+            Provenance::Fitted => "fitted",
+            Provenance::LabPkg => "imported-pkg",
+            Provenance::LabApi => "imported-api",
+        }
+    }
+}
+
+/// The laser dot's colour as this unit's camera sees it, learned from the calibration's
+/// accepted dots: the dot detector scores candidates by their contrast along it.
+///
+/// A laser's spectrum is fixed, so the colour it adds to a surface has a fixed direction in
+/// the camera's RGB space whatever the surface and the water; only its length (brightness)
+/// varies. Clipped pixels carry no colour and are left out when learning it.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct LaserColour {
+    /// Unit vector (R, G, B) of the dot's excess over its local background, in the decoded
+    /// photo's 8-bit RGB.
+    pub rgb: [f32; 3],
+    /// 1-sigma angle between an accepted dot's direction and `rgb`, radians.
+    pub spread_rad: f32,
+    /// Accepted dots it was learned from.
+    pub dots: u16,
+}
+
 /// The laser fit's own quality figures, as `fslcal laser` reports them.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 pub struct FitQuality {
@@ -167,9 +208,35 @@ pub struct UnitFile<'a> {
     pub method: FitMethod,
     /// The target in the calibration photos, e.g. `checkerboard:14x10@42.17mm`.
     pub target: Option<&'a str>,
+    /// Fitted here or imported, and from what (version 2; version 1 files: from `method`).
+    pub provenance: Provenance,
+    /// The laser dot's learned colour (version 2; `None` when unknown: imported, or a
+    /// version 1 file).
+    pub laser_colour: Option<LaserColour>,
 }
 
-/// Version 1's payload, in wire order. Field order is the format: never reorder.
+/// Version 2's payload, in wire order: version 1's fields, then where the calibration came
+/// from and the laser's colour, then the signer. Field order is the format: never reorder.
+#[derive(Serialize, Deserialize)]
+struct PayloadV2<'a> {
+    unit: &'a str,
+    #[serde(borrow)]
+    camera_identity: CameraIdentity<'a>,
+    intrinsics: IntrinsicsWire,
+    laser: LaserWire,
+    made_utc_s: i64,
+    water_depth_m: Option<f32>,
+    depth_range_m: Option<[f32; 2]>,
+    method: FitMethod,
+    fit: Option<FitQuality>,
+    #[serde(borrow)]
+    target: Option<&'a str>,
+    provenance: Provenance,
+    laser_colour: Option<LaserColour>,
+    signer: [u8; 32],
+}
+
+/// Version 1's payload, in wire order, as released: read, never written.
 #[derive(Serialize, Deserialize)]
 struct PayloadV1<'a> {
     unit: &'a str,
@@ -190,9 +257,9 @@ struct PayloadV1<'a> {
 const UPPER: [(usize, usize); 10] = [(0, 0), (0, 1), (0, 2), (0, 3), (1, 1), (1, 2), (1, 3), (2, 2), (2, 3), (3, 3)];
 
 impl<'a> UnitFile<'a> {
-    fn to_wire(self, signer: [u8; 32]) -> PayloadV1<'a> {
+    fn to_wire(self, signer: [u8; 32]) -> PayloadV2<'a> {
         let c = &self.camera;
-        PayloadV1 {
+        PayloadV2 {
             unit: self.unit,
             camera_identity: self.camera_identity,
             intrinsics: IntrinsicsWire {
@@ -215,11 +282,13 @@ impl<'a> UnitFile<'a> {
             method: self.method,
             fit: self.fit,
             target: self.target,
+            provenance: self.provenance,
+            laser_colour: self.laser_colour,
             signer,
         }
     }
 
-    fn from_wire(p: &PayloadV1<'a>) -> Self {
+    fn from_wire(p: &PayloadV2<'a>) -> Self {
         let i = &p.intrinsics;
         let mut cov = [[0.0; 4]; 4];
         for (&(r, c), &v) in UPPER.iter().zip(&p.laser.covariance_upper) {
@@ -249,6 +318,8 @@ impl<'a> UnitFile<'a> {
             fit: p.fit,
             method: p.method,
             target: p.target,
+            provenance: p.provenance,
+            laser_colour: p.laser_colour,
         }
     }
 
@@ -278,6 +349,19 @@ impl<'a> UnitFile<'a> {
         }
         if (d.norm() - 1.0).abs() > 1e-9 || d.z <= 0.0 {
             return Err("laser direction not a forward unit vector");
+        }
+        if let Some(c) = &self.laser_colour {
+            let norm = c.rgb.iter().map(|v| v * v).sum::<f32>().sqrt();
+            if !c.rgb.iter().all(|v| v.is_finite())
+                || (norm - 1.0).abs() > 1e-3
+                || !c.spread_rad.is_finite()
+                || c.spread_rad < 0.0
+            {
+                return Err("laser colour not a unit vector with a spread");
+            }
+        }
+        if (self.method == FitMethod::Imported) != (self.provenance != Provenance::Fitted) {
+            return Err("method and provenance disagree on whether the calibration was imported");
         }
         if self.laser_covariance.iter().flatten().any(|v| !v.is_finite()) {
             return Err("laser covariance not finite");
@@ -318,6 +402,41 @@ impl<'a> UnitFile<'a> {
         let signature = key.sign(&out[..signed_len]);
         out[signed_len..total].copy_from_slice(&signature.to_bytes());
         Ok(total)
+    }
+}
+
+/// One version's payload from the bytes between the header and the signature, which it
+/// must fill exactly.
+fn take_payload<'a, P: Deserialize<'a>>(body: &'a [u8]) -> Result<P, FormatError> {
+    match postcard::take_from_bytes(body) {
+        Ok((p, [])) => Ok(p),
+        Ok(_) => Err(FormatError::Corrupt("bytes between the payload and the signature")),
+        Err(postcard::Error::DeserializeUnexpectedEnd) => {
+            Err(FormatError::Corrupt("the payload runs into the signature"))
+        }
+        Err(_) => Err(FormatError::Corrupt("undecodable payload")),
+    }
+}
+
+impl<'a> PayloadV1<'a> {
+    /// Version 1 knew one import, the lab's `.pkg`, and no laser colour.
+    fn into_v2(self) -> PayloadV2<'a> {
+        let provenance = if self.method == FitMethod::Imported { Provenance::LabPkg } else { Provenance::Fitted };
+        PayloadV2 {
+            unit: self.unit,
+            camera_identity: self.camera_identity,
+            intrinsics: self.intrinsics,
+            laser: self.laser,
+            made_utc_s: self.made_utc_s,
+            water_depth_m: self.water_depth_m,
+            depth_range_m: self.depth_range_m,
+            method: self.method,
+            fit: self.fit,
+            target: self.target,
+            provenance,
+            laser_colour: None,
+            signer: self.signer,
+        }
     }
 }
 
@@ -368,14 +487,11 @@ impl<'a> SignedUnitFile<'a> {
         let (signed, sig) = bytes.split_at(signed_len);
         let mut signature = [0u8; SIGNATURE_BYTES];
         signature.copy_from_slice(sig);
-        // Only version 1 exists; a version 2 adds its arm here and keeps this one.
-        let payload: PayloadV1<'a> = match postcard::take_from_bytes(&signed[HEADER_BYTES..]) {
-            Ok((p, [])) => p,
-            Ok(_) => return Err(FormatError::Corrupt("bytes between the payload and the signature")),
-            Err(postcard::Error::DeserializeUnexpectedEnd) => {
-                return Err(FormatError::Corrupt("the payload runs into the signature"))
-            }
-            Err(_) => return Err(FormatError::Corrupt("undecodable payload")),
+        // Each released version keeps its arm; a version 1 payload becomes version 2's.
+        let body = &signed[HEADER_BYTES..];
+        let payload = match version {
+            1 => take_payload::<PayloadV1<'a>>(body)?.into_v2(),
+            _ => take_payload::<PayloadV2<'a>>(body)?,
         };
         let contents = UnitFile::from_wire(&payload);
         contents.check().map_err(FormatError::Corrupt)?;
@@ -450,6 +566,10 @@ pub fn example() -> UnitFile<'static> {
         }),
         method: FitMethod::Reprojection,
         target: Some("checkerboard:14x10@42.17mm"),
+        provenance: Provenance::Fitted,
+        // A green dot with a little red in it, as a TG-6 renders a 532 nm laser:
+        // 0.28² + 0.96² = 1, a unit vector to f32 rounding.
+        laser_colour: Some(LaserColour { rgb: [0.28, 0.96, 0.0], spread_rad: 0.0625, dots: 14 }),
     }
 }
 
@@ -485,9 +605,12 @@ mod tests {
         assert_eq!(verify(b"{\"camera\": 1}", &pk).unwrap_err(), FormatError::NotACalibrationFile);
         let mut newer = buf;
         newer[4] = VERSION + 1;
-        assert_eq!(verify(&newer[..n], &pk).unwrap_err(), FormatError::NewerVersion { found: 2, supported: 1 });
+        assert_eq!(
+            verify(&newer[..n], &pk).unwrap_err(),
+            FormatError::NewerVersion { found: VERSION + 1, supported: VERSION }
+        );
         let mut tampered = buf;
-        tampered[n - SIGNATURE_BYTES - 40] ^= 0x01; // inside the covariance
+        tampered[n - SIGNATURE_BYTES - 40] ^= 0x01; // inside the signed payload
         assert_eq!(verify(&tampered[..n], &pk).unwrap_err(), FormatError::BadSignature);
     }
 
