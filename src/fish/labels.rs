@@ -120,7 +120,8 @@ fn label_studio(text: &str) -> Result<Vec<FishLabel>, String> {
     let mut out = Vec::new();
     for task in &tasks {
         let Some(annotation) = task.current() else { continue };
-        let photo = task.image.as_ref().ok_or_else(|| format!("{}: no `data.image` naming the photo", task.describe()))?;
+        let photo =
+            task.image.as_ref().ok_or_else(|| format!("{}: no `data.image` naming the photo", task.describe()))?;
         let (mut heads, mut tails, mut dots) = (vec![], vec![], vec![]);
         for k in &annotation.keypoints {
             match k.labels.first().and_then(|l| part(l)) {

@@ -129,10 +129,9 @@ impl Frame {
             _ => false,
         };
         match (self.readout_origin_px(), to.readout_origin_px()) {
-            (Some(a), Some(b)) if same_sensor => Ok(FrameMap {
-                shift_px: Vec2::new(a[0] as f64 - b[0] as f64, a[1] as f64 - b[1] as f64),
-                to: *to,
-            }),
+            (Some(a), Some(b)) if same_sensor => {
+                Ok(FrameMap { shift_px: Vec2::new(a[0] as f64 - b[0] as f64, a[1] as f64 - b[1] as f64), to: *to })
+            }
             _ => Err(FrameError::CannotPlace { from: size(self), to: size(to) }),
         }
     }

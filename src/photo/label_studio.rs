@@ -109,8 +109,8 @@ pub fn looks_like_json(text: &str) -> bool {
 
 /// Reads an export: a list of tasks (or one task).
 pub fn parse(text: &str) -> Result<Vec<Task>, LabelStudioError> {
-    let v: Value = serde_json::from_str(text.trim_start_matches('\u{feff}'))
-        .map_err(|e| LabelStudioError::Json(e.to_string()))?;
+    let v: Value =
+        serde_json::from_str(text.trim_start_matches('\u{feff}')).map_err(|e| LabelStudioError::Json(e.to_string()))?;
     let tasks = match v {
         Value::Array(a) => a,
         Value::Object(_) => vec![v],
@@ -163,7 +163,9 @@ fn annotation(a: &Value) -> Result<Annotation, String> {
 fn keypoint(r: &Value, labels: &[Value]) -> Result<Keypoint, String> {
     let labels: Vec<String> = labels.iter().filter_map(Value::as_str).map(str::to_string).collect();
     let name = labels.first().map_or_else(|| "a keypoint".to_string(), |l| format!("keypoint `{l}`"));
-    let size = |k: &str| r[k].as_u64().filter(|&n| n > 0 && n <= u32::MAX as u64).map(|n| n as u32);
+    // Label Studio writes whole numbers; a script may write `4040.0`.
+    let size =
+        |k: &str| r[k].as_f64().filter(|n| *n >= 1.0 && *n <= u32::MAX as f64 && n.fract() == 0.0).map(|n| n as u32);
     let (Some(w), Some(h)) = (size("original_width"), size("original_height")) else {
         return Err(format!("{name} without a whole `original_width` and `original_height` (the image's size)"));
     };
