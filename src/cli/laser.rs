@@ -59,7 +59,7 @@ pub struct LaserArgs {
     dots: Option<PathBuf>,
 
     /// Plausible camera-to-laser baseline for the rig, millimetres.
-    #[arg(long, value_name = "MIN,MAX", default_value = "78,145", value_parser = parse_range_mm)]
+    #[arg(long, value_name = "MIN,MAX", default_value = "78,145", value_parser = super::lab_files::parse_range_mm)]
     baseline_range_mm: (f64, f64),
 
     /// A used dot must lie within this many pixels of the fitted line's image.
@@ -90,18 +90,6 @@ pub struct LaserArgs {
     /// Calibration photos (JPEG, PNG or Olympus ORF raw).
     #[arg(required = true, value_name = "PHOTOS")]
     photos: Vec<PathBuf>,
-}
-
-fn parse_range_mm(s: &str) -> Result<(f64, f64), String> {
-    let (a, b) = s.split_once(',').ok_or("expected MIN,MAX in millimetres, e.g. 78,145")?;
-    let (a, b): (f64, f64) = (
-        a.trim().parse().map_err(|_| format!("`{a}` is not a number"))?,
-        b.trim().parse().map_err(|_| format!("`{b}` is not a number"))?,
-    );
-    if !(a > 0.0 && b > a) {
-        return Err("expected 0 < MIN < MAX".into());
-    }
-    Ok((a / 1e3, b / 1e3))
 }
 
 fn hand_dots(args: &LaserArgs) -> anyhow::Result<HandDots> {
