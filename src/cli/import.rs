@@ -46,7 +46,7 @@ pub struct ImportArgs {
     /// Where the lab's files' times without a zone were written (the 2023 tools wrote local
     /// time): an IANA zone (`America/Los_Angeles`) or an offset (`-08:00`). Times that
     /// carry a zone keep it.
-    #[arg(long, value_name = "ZONE", value_parser = utc_time::parse_zone)]
+    #[arg(long, value_name = "ZONE", value_parser = utc_time::parse_zone, allow_hyphen_values = true)]
     timezone: Option<jiff::tz::TimeZone>,
 
     /// Plausible camera-to-laser baseline for the rig, millimetres (as `fslcal laser`): a

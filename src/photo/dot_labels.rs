@@ -94,7 +94,7 @@ pub enum DotsFileError {
     Io { path: String, source: std::io::Error },
     #[error("{path}: {why}")]
     Csv { path: String, why: String },
-    #[error("{path}: a Label Studio export that cannot be read: {source}")]
+    #[error("{path}: not a Label Studio export fslcal reads ({source}); --dots takes a `file,x,y` CSV or the lab's Label Studio JSON export")]
     LabelStudio { path: String, source: LabelStudioError },
     #[error("{path}: {why}")]
     Empty { path: String, why: String },
@@ -285,7 +285,7 @@ mod tests {
         // A JSON export that is not Label Studio's, a one-line non-CSV, an empty file and a
         // binary file are each refused with the reason, not read as zero dots.
         for (name, text, why) in [
-            ("other.json", r#"{"camera": {}}"#, "Label Studio export that cannot be read"),
+            ("other.json", r#"{"camera": {}}"#, "not a Label Studio export fslcal reads"),
             ("one.txt", "hello there", "line 1: expected `file,x,y`"),
             ("empty.csv", "file,x,y\n", "no dots in it"),
             ("bad.csv", "file,x,y\nP1.jpg,10\n", "line 2"),
