@@ -580,3 +580,57 @@ fn import_refuses_wrong_units_and_naive_times_and_says_what_it_changed() {
     let (o, _) = import(&good, &["--timezone", "UTC"]);
     assert!(String::from_utf8_lossy(&ok(&o).stderr).trim().is_empty());
 }
+
+/// Fish labelled on the lab's 4040x3016 images measure as the same fish labelled in the
+/// photo's own 4000x3000 pixels; labels of a size that cannot be placed are withheld with
+/// the reason.
+#[test]
+fn fish_labels_on_the_labs_frame_measure_the_same_fish() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let camera = calib_targets::rig::tg6_camera();
+    let laser = calib_targets::rig::fsl_laser();
+    let cal = d.join("cal.json");
+    let cal_json = json!({
+        "camera": fslcal::calibration::camera_json(&camera),
+        "laser": {"origin_m": laser.origin_m, "direction": laser.direction,
+                  "covariance": [[1e-8, 0.0, 0.0, 0.0], [0.0, 1e-8, 0.0, 0.0], [0.0, 0.0, 1e-9, 0.0], [0.0, 0.0, 0.0, 1e-9]]},
+        "depth_range_m": [0.5, 4.6],
+    });
+    std::fs::write(&cal, serde_json::to_vec(&cal_json).unwrap()).unwrap();
+    let photo = d.join("P7010042.JPG");
+    image::RgbImage::from_pixel(4000, 3000, image::Rgb([40, 90, 110])).save(&photo).unwrap();
+    // A fish at 2 m with the dot on it, in the photo's pixels.
+    let dot = laser.pixel_at_depth(&camera, 2.0).unwrap();
+    let (head, tail) = (dot + Vec2::new(-400.0, 30.0), dot + Vec2::new(380.0, -20.0));
+    let csv = d.join("labels.csv");
+    let row = |p: Vec2| format!("{},{}", p.x, p.y);
+    std::fs::write(&csv, format!("P7010042.JPG,{},{},{}\n", row(head), row(tail), row(dot))).unwrap();
+    let export = |name: &str, w: u32, h: u32, shift: f64| {
+        let kp = |label: &str, p: Vec2| {
+            json!({"type": "keypointlabels", "original_width": w, "original_height": h, "image_rotation": 0,
+                   "value": {"x": (p.x + shift + 0.5) / w as f64 * 100.0, "y": (p.y + shift + 0.5) / h as f64 * 100.0, "keypointlabels": [label]}})
+        };
+        let tasks = json!([{"id": 1, "data": {"image": "/data/upload/3/9c1e-P7010042.JPG"},
+            "annotations": [{"result": [kp("Snout", head), kp("Fork", tail), kp("Green Laser", dot)]}]}]);
+        let p = d.join(name);
+        std::fs::write(&p, tasks.to_string()).unwrap();
+        p
+    };
+    let measure = |labels: &Path| {
+        json_out(&fslcal(&["measure", "--cal", s(&cal), "--labels", s(labels), "--json", s(&photo)]))["fish"][0].clone()
+    };
+    let own = measure(&csv);
+    let lab = measure(&export("lab-frame.json", 4040, 3016, CROP));
+    let length = |v: &Value| v["length_m"].as_f64().unwrap();
+    eprintln!(
+        "fish at 2 m: CSV in the photo's pixels {:.4} mm, Label Studio on 4040x3016 {:.4} mm",
+        length(&own) * 1e3,
+        length(&lab) * 1e3
+    );
+    assert!((length(&own) - length(&lab)).abs() < 1e-9, "{own} vs {lab}");
+    assert!((lab["head_px"][0].as_f64().unwrap() - head.x).abs() < 1e-9);
+    let odd = measure(&export("odd-frame.json", 2000, 1500, 0.0));
+    let flags = odd["flags"].to_string();
+    assert!(odd["length_m"].is_null() && flags.contains("2000x1500") && flags.contains("4000x3000"), "{odd}");
+}

@@ -6,6 +6,7 @@
 //! (docs/conventions.md).
 
 use super::FishError;
+use crate::photo::frame::Frame;
 use fslcal_core::Vec2;
 use std::path::Path;
 
@@ -19,6 +20,9 @@ pub struct FishLabel {
     pub tail_px: Vec2,
     pub dot_px: Option<Vec2>,
     pub species: Option<String>,
+    /// The image the points were clicked on (a Label Studio keypoint's `original_width` x
+    /// `original_height`); `None` for a CSV, whose pixels are the photo's.
+    pub frame: Option<Frame>,
 }
 
 impl FishLabel {
@@ -97,6 +101,7 @@ fn csv(text: &str) -> Result<Vec<FishLabel>, String> {
             tail_px: pair("tail_x", "tail_y")?.ok_or_else(missing)?,
             dot_px: pair("dot_x", "dot_y")?,
             species: cell("species").map(str::to_string),
+            frame: None,
         });
     }
     Ok(out)
@@ -140,6 +145,8 @@ fn label_studio(text: &str) -> Result<Vec<FishLabel>, String> {
             ));
         }
         let species = annotation.choices.first().cloned();
+        // One annotation is of one image: its keypoints share their frame.
+        let frame = annotation.keypoints.first().map(|k| k.frame);
         for (head_px, tail_px) in heads.into_iter().zip(tails) {
             out.push(FishLabel {
                 photo: photo.clone(),
@@ -147,6 +154,7 @@ fn label_studio(text: &str) -> Result<Vec<FishLabel>, String> {
                 tail_px,
                 dot_px: dots.first().copied(),
                 species: species.clone(),
+                frame,
             });
         }
     }
@@ -180,6 +188,7 @@ mod tests {
             tail_px: Vec2::zeros(),
             dot_px: None,
             species: None,
+            frame: None,
         };
         assert!(l.names_photo(Path::new("dive/P7010042.JPG")));
         assert!(!l.names_photo(Path::new("dive/7010042.JPG")));
