@@ -239,12 +239,12 @@ pub fn names_photo(format: DotsFormat, label_photo: &str, photo: &Path) -> bool 
     }
 }
 
+/// A dots file's dots matched to a run's photos.
+pub type Matched<'a> = (Vec<(PathBuf, &'a DotLabel)>, Vec<&'a str>);
+
 /// The dots matched to `photos`: each photo's dot, and the labels that named no photo.
 /// A label naming two photos is refused: which one it was clicked on is not known.
-pub fn match_photos<'a>(
-    file: &'a DotsFile,
-    photos: &[PathBuf],
-) -> Result<(Vec<(PathBuf, &'a DotLabel)>, Vec<&'a str>), String> {
+pub fn match_photos<'a>(file: &'a DotsFile, photos: &[PathBuf]) -> Result<Matched<'a>, String> {
     let mut matched = Vec::new();
     let mut unmatched = Vec::new();
     for dot in &file.dots {
