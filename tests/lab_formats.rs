@@ -154,6 +154,62 @@ fn task(id: usize, photo: &Path, px: Vec2) -> Value {
     })
 }
 
+/// The true dots of the scenes whose dot is on the board, by photo.
+fn true_dots(set: &SceneSet) -> Vec<(PathBuf, Vec2)> {
+    set.photos
+        .iter()
+        .zip(&set.truths)
+        .filter_map(|(p, t)| t.dot.as_ref().map(|d| (p.clone(), Vec2::new(d.pixel[0], d.pixel[1]))))
+        .collect()
+}
+
+/// A `file,x,y` CSV of `dots` moved by `shift` px.
+fn write_csv(dir: &Path, name: &str, dots: &[(PathBuf, Vec2)], shift: f64) -> PathBuf {
+    let p = dir.join(name);
+    let rows: String = dots.iter().map(|(f, d)| format!("{},{},{}\n", s(f), d.x + shift, d.y + shift)).collect();
+    std::fs::write(&p, format!("file,x,y\n{rows}")).unwrap();
+    p
+}
+
+/// A Label Studio export of `dots`, each placed on the 4040x3016 image by `to_raw`.
+fn write_export(dir: &Path, name: &str, dots: &[(PathBuf, Vec2)], to_raw: &dyn Fn(Vec2) -> Vec2) -> PathBuf {
+    let tasks: Vec<Value> = dots.iter().enumerate().map(|(i, (p, d))| task(i, p, to_raw(*d))).collect();
+    let p = dir.join(name);
+    std::fs::write(&p, serde_json::to_vec(&tasks).unwrap()).unwrap();
+    p
+}
+
+/// The lab's lens `.pkg` of `camera`: the same lens in the 4040x3016 readout frame.
+fn write_lab_lens(dir: &Path, camera: &CameraModel) -> (PathBuf, CameraModel) {
+    let raw = CameraModel {
+        width_px: 4040,
+        height_px: 3016,
+        cx_px: camera.cx_px + CROP,
+        cy_px: camera.cy_px + CROP,
+        ..*camera
+    };
+    let lens = LensPkg {
+        camera_matrix: [raw.fx_px, 0.0, raw.cx_px, 0.0, raw.fy_px, raw.cy_px, 0.0, 0.0, 1.0],
+        distortion: raw.distortion.to_opencv().to_vec(),
+        calibrated_utc_s: 1_739_212_325,
+    };
+    let path = dir.join("fsl-xx-lens-raw.pkg");
+    std::fs::write(&path, lens.write().unwrap()).unwrap();
+    (path, raw)
+}
+
+/// How far `other` puts a dot `base` puts at 1, 3 and 5 m.
+fn depth_errors(camera: &CameraModel, base: &LaserLine, other: &LaserLine) -> String {
+    let at: Vec<String> = [1.0, 3.0, 5.0]
+        .iter()
+        .map(|&d| {
+            let fix = other.fix_from_pixel(camera, base.pixel_at_depth(camera, d).unwrap()).unwrap();
+            format!("{:+.0} mm at {d} m", (fix.depth_m - d) * 1e3)
+        })
+        .collect();
+    at.join(", ")
+}
+
 /// A calibration and labels made in the lab's 4040x3016 frame give the laser the same scene
 /// gives in fslcal's own 4000x3000 frame: the lens `.pkg` with its principal point 8 px on,
 /// the dots 8 px on (as clicked on as-shot images, and as the lab clicks them, on images
@@ -162,46 +218,11 @@ fn task(id: usize, photo: &Path, px: Vec2) -> Value {
 #[test]
 fn the_labs_4040x3016_frame_gives_the_same_laser_as_fslcals_own() {
     let set = scene_set();
-    let dir = set.path();
-    let truth_cam = set.truths[0].camera;
-    let truth = set.truths[0].laser.unwrap();
-    let dots: Vec<(PathBuf, Vec2)> = set
-        .photos
-        .iter()
-        .zip(&set.truths)
-        .filter_map(|(p, t)| t.dot.as_ref().map(|d| (p.clone(), Vec2::new(d.pixel[0], d.pixel[1]))))
-        .collect();
+    let (dir, truth_cam, truth) = (set.path(), set.truths[0].camera, set.truths[0].laser.unwrap());
+    let dots = true_dots(set);
     assert!(dots.len() >= 6, "{} dots on boards", dots.len());
-    // fslcal's own frame: the truth camera, the true dots.
-    let csv = |name: &str, shift: f64| {
-        let p = dir.join(name);
-        let rows: String = dots.iter().map(|(f, d)| format!("{},{},{}\n", s(f), d.x + shift, d.y + shift)).collect();
-        std::fs::write(&p, format!("file,x,y\n{rows}")).unwrap();
-        p
-    };
-    let own = run_laser(&laser_args(set, &set.camera_file, &csv("own.csv", 0.0), &[]));
-    // The lab's lens: the same lens in the readout frame.
-    let raw_cam = CameraModel {
-        width_px: 4040,
-        height_px: 3016,
-        cx_px: truth_cam.cx_px + CROP,
-        cy_px: truth_cam.cy_px + CROP,
-        ..truth_cam
-    };
-    let k = [raw_cam.fx_px, 0.0, raw_cam.cx_px, 0.0, raw_cam.fy_px, raw_cam.cy_px, 0.0, 0.0, 1.0];
-    let lens = LensPkg {
-        camera_matrix: k,
-        distortion: raw_cam.distortion.to_opencv().to_vec(),
-        calibrated_utc_s: 1_739_212_325,
-    };
-    let lens_path = dir.join("fsl-xx-lens-raw.pkg");
-    std::fs::write(&lens_path, lens.write().unwrap()).unwrap();
-    let export = |name: &str, to_raw: &dyn Fn(Vec2) -> Vec2| {
-        let tasks: Vec<Value> = dots.iter().enumerate().map(|(i, (p, d))| task(i, p, to_raw(*d))).collect();
-        let p = dir.join(name);
-        std::fs::write(&p, serde_json::to_vec(&tasks).unwrap()).unwrap();
-        p
-    };
+    let own = run_laser(&laser_args(set, &set.camera_file, &write_csv(dir, "own.csv", &dots, 0.0), &[]));
+    let (lens_path, raw_cam) = write_lab_lens(dir, &truth_cam);
     let shifted = |d: Vec2| d + Vec2::repeat(CROP);
     // As the lab clicks: on the readout image undistorted with its lens (OpenCV's
     // undistort keeps the camera matrix).
@@ -209,11 +230,12 @@ fn the_labs_4040x3016_frame_gives_the_same_laser_as_fslcals_own() {
         let x = raw_cam.undistort(shifted(d)).unwrap();
         Vec2::new(raw_cam.fx_px * x.x + raw_cam.cx_px, raw_cam.fy_px * x.y + raw_cam.cy_px)
     };
-    let as_shot =
-        run_laser(&laser_args(set, &lens_path, &export("as-shot.json", &shifted), &["--dots-image", "as-shot"]));
-    let lab_style = run_laser(&laser_args(set, &lens_path, &export("lab.json", &undistorted), &[]));
-    let csv_said = run_laser(&laser_args(set, &set.camera_file, &csv("raw.csv", CROP), &["--dots-frame", "4040x3016"]));
-    let csv_unsaid = run_laser(&laser_args(set, &set.camera_file, &csv("raw.csv", CROP), &[]));
+    let as_shot_json = write_export(dir, "as-shot.json", &dots, &shifted);
+    let as_shot = run_laser(&laser_args(set, &lens_path, &as_shot_json, &["--dots-image", "as-shot"]));
+    let lab_style = run_laser(&laser_args(set, &lens_path, &write_export(dir, "lab.json", &dots, &undistorted), &[]));
+    let raw_csv = write_csv(dir, "raw.csv", &dots, CROP);
+    let csv_said = run_laser(&laser_args(set, &set.camera_file, &raw_csv, &["--dots-frame", "4040x3016"]));
+    let csv_unsaid = run_laser(&laser_args(set, &set.camera_file, &raw_csv, &[]));
 
     let base = line_of(&own);
     let (o, a, z) = apart(&truth_cam, &base, &truth);
@@ -236,24 +258,20 @@ fn the_labs_4040x3016_frame_gives_the_same_laser_as_fslcals_own() {
     assert_eq!(lab_style["dots_file"]["frames"][0]["shift_px"], json!([-8.0, -8.0]));
     let wrong = line_of(&csv_unsaid);
     let (o, a, z) = apart(&truth_cam, &base, &wrong);
-    let at: Vec<String> = [1.0, 3.0, 5.0]
-        .iter()
-        .map(|&d| {
-            let fix = wrong.fix_from_pixel(&truth_cam, base.pixel_at_depth(&truth_cam, d).unwrap()).unwrap();
-            format!("{:+.0} mm at {d} m", (fix.depth_m - d) * 1e3)
-        })
-        .collect();
+    let errors = depth_errors(&truth_cam, &base, &wrong);
     eprintln!(
-        "the same 4040x3016 dots taken as fslcal's pixels: origin {o:.2} mm, direction {a:.4} deg, depth {}",
-        at.join(", ")
+        "the same 4040x3016 dots taken as fslcal's pixels: origin {o:.2} mm, direction {a:.4} deg, depth {errors}"
     );
     assert!(z > 5.0, "an 8 px offset must show: {z} mm");
+    lab_equivalent_rides_along(&own, dots.len());
+}
 
-    // The lab's equivalent of its own tool rides along: on these clean dots, within a
-    // hair of fslcal's fit.
+/// The lab's equivalent of its own tool in the laser JSON: on clean dots, within a hair of
+/// fslcal's fit.
+fn lab_equivalent_rides_along(own: &Value, dots: usize) {
     let lab = &own["lab_equivalent"];
     assert_eq!(lab["method"], "average");
-    assert_eq!(lab["dots"], dots.len());
+    assert_eq!(lab["dots"], dots);
     eprintln!(
         "lab equivalent on the true dots: {:.4} deg, origins {:.3} mm apart, depth at 1/3/5 m {} m",
         lab["angle_deg"].as_f64().unwrap(),
@@ -358,6 +376,57 @@ fn axis() -> [f64; 3] {
     [d.x, d.y, d.z]
 }
 
+/// Every number in `v`, depth first, as its bits.
+fn bits(v: &Value) -> Vec<u64> {
+    match v {
+        Value::Number(n) => vec![n.as_f64().unwrap().to_bits()],
+        Value::Array(a) => a.iter().flat_map(bits).collect(),
+        _ => Vec::new(),
+    }
+}
+
+fn keys(v: &Value) -> Vec<String> {
+    v.as_object().unwrap().keys().cloned().collect()
+}
+
+fn sorted(fields: &[&str]) -> Vec<String> {
+    let mut v: Vec<String> = fields.iter().map(|s| s.to_string()).collect();
+    v.sort();
+    v
+}
+
+/// The lab's API bodies as its database returns them.
+fn lab_bodies(d: &Path) -> (Value, PathBuf, Value, PathBuf) {
+    let intrinsics = json!({"id": 17, "camera_matrix": K, "distortion_coefficients": DIST, "camera_id": 4});
+    let extrinsics = json!({"id": 230, "laser_position": POSITION_M, "laser_axis": axis(),
+                            "created_at": "2025-02-10T18:32:05+00:00", "dive_id": 31, "camera_id": 4});
+    let (ci, le) = (d.join("intrinsics.json"), d.join("extrinsics.json"));
+    std::fs::write(&ci, serde_json::to_vec_pretty(&intrinsics).unwrap()).unwrap();
+    std::fs::write(&le, serde_json::to_vec_pretty(&extrinsics).unwrap()).unwrap();
+    (intrinsics, ci, extrinsics, le)
+}
+
+/// Python's `json` reads the same numbers from both files of each pair, and
+/// `datetime.fromisoformat` reads `created_at` as a zoned time at `epoch_s`.
+fn python_reads_the_same(extrinsics: [&str; 2], intrinsics: [&str; 2], epoch_s: f64) {
+    let script = r#"
+import json, sys
+from datetime import datetime
+a, b = json.load(open(sys.argv[1])), json.load(open(sys.argv[2]))
+ia, ib = json.load(open(sys.argv[3])), json.load(open(sys.argv[4]))
+same = all(a[k] == b[k] for k in ["laser_position", "laser_axis", "dive_id", "camera_id"]) and \
+       all(ia[k] == ib[k] for k in ["camera_matrix", "distortion_coefficients", "camera_id"])
+t = datetime.fromisoformat(b["created_at"])
+print(json.dumps({"same": same, "zoned": t.tzinfo is not None, "epoch": t.timestamp()}))
+"#;
+    let [le, le_out] = extrinsics;
+    let [ci, ci_out] = intrinsics;
+    let py = Command::new("python3").args(["-c", script, le, le_out, ci, ci_out]).output();
+    let py = py.expect("this test needs python3 (the lab's tools read these bodies with Python's json and datetime)");
+    let p: Value = serde_json::from_slice(&ok(&py).stdout).unwrap();
+    assert_eq!(p, json!({"same": true, "zoned": true, "epoch": epoch_s}), "Python reads the same numbers");
+}
+
 /// The lab's API bodies → `fslcal import` → signed file → `fslcal export --format
 /// fishsense-api` → the same bodies: every number bit for bit, the fields exactly the lab's
 /// models', the time ISO 8601 with its zone (Python's `datetime.fromisoformat` reads it).
@@ -366,27 +435,11 @@ fn api_bodies_round_trip_bit_exact_through_a_signed_file() {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
     let key = keygen(d);
-    let intrinsics = json!({"id": 17, "camera_matrix": K, "distortion_coefficients": DIST, "camera_id": 4});
-    let extrinsics = json!({"id": 230, "laser_position": POSITION_M, "laser_axis": axis(),
-                            "created_at": "2025-02-10T18:32:05+00:00", "dive_id": 31, "camera_id": 4});
-    let (ci, le) = (d.join("intrinsics.json"), d.join("extrinsics.json"));
-    std::fs::write(&ci, serde_json::to_vec_pretty(&intrinsics).unwrap()).unwrap();
-    std::fs::write(&le, serde_json::to_vec_pretty(&extrinsics).unwrap()).unwrap();
+    let (intrinsics, ci, extrinsics, le) = lab_bodies(d);
     let file = d.join("fsl-11d.fslcal");
     // Either order: told apart by content.
-    let v = json_out(&fslcal(&[
-        "import",
-        s(&le),
-        s(&ci),
-        "--unit",
-        "FSL-11",
-        "--key",
-        s(&key),
-        "--out",
-        s(&file),
-        "--json",
-    ]));
-    assert_eq!(v["provenance"], "imported-api");
+    let import = ["import", s(&le), s(&ci), "--unit", "FSL-11", "--key", s(&key), "--out", s(&file), "--json"];
+    assert_eq!(json_out(&fslcal(&import))["provenance"], "imported-api");
     let i = json_out(&fslcal(&["inspect", s(&file), "--json"]));
     assert_eq!(i["provenance"], "imported-api");
     assert_eq!(i["camera"]["image_size"], json!([4000, 3000]));
@@ -411,26 +464,8 @@ fn api_bodies_round_trip_bit_exact_through_a_signed_file() {
     ]));
     let read = |k: &str| -> Value { serde_json::from_slice(&std::fs::read(e[k].as_str().unwrap()).unwrap()).unwrap() };
     let (ci2, le2) = (read("camera_intrinsics"), read("laser_extrinsics"));
-    let keys = |v: &Value| -> Vec<String> { v.as_object().unwrap().keys().cloned().collect() };
-    let sorted = |f: &[&str]| -> Vec<String> {
-        let mut v: Vec<String> = f.iter().map(|s| s.to_string()).collect();
-        v.sort();
-        v
-    };
     assert_eq!(keys(&ci2), sorted(&CAMERA_INTRINSICS_FIELDS), "the lab's CameraIntrinsics fields");
     assert_eq!(keys(&le2), sorted(&LASER_EXTRINSICS_FIELDS), "the lab's LaserExtrinsics fields");
-    let bits = |v: &Value| -> Vec<u64> {
-        fn walk(v: &Value, out: &mut Vec<u64>) {
-            match v {
-                Value::Number(n) => out.push(n.as_f64().unwrap().to_bits()),
-                Value::Array(a) => a.iter().for_each(|x| walk(x, out)),
-                _ => {}
-            }
-        }
-        let mut out = Vec::new();
-        walk(v, &mut out);
-        out
-    };
     let mut count = 0;
     for (a, b, fields) in [
         (&intrinsics, &ci2, &["camera_matrix", "distortion_coefficients", "camera_id"][..]),
@@ -449,25 +484,16 @@ fn api_bodies_round_trip_bit_exact_through_a_signed_file() {
          fields {:?} and {:?}; created_at {}",
         CAMERA_INTRINSICS_FIELDS, LASER_EXTRINSICS_FIELDS, le2["created_at"]
     );
-
-    // The lab's Python reads the same: its json gives the same floats, fromisoformat a zoned time.
-    let script = r#"
-import json, sys
-from datetime import datetime
-a, b = json.load(open(sys.argv[1])), json.load(open(sys.argv[2]))
-ia, ib = json.load(open(sys.argv[3])), json.load(open(sys.argv[4]))
-same = all(a[k] == b[k] for k in ["laser_position", "laser_axis", "dive_id", "camera_id"]) and \
-       all(ia[k] == ib[k] for k in ["camera_matrix", "distortion_coefficients", "camera_id"])
-t = datetime.fromisoformat(b["created_at"])
-print(json.dumps({"same": same, "zoned": t.tzinfo is not None, "epoch": t.timestamp()}))
-"#;
     let (le_out, ci_out) = (e["laser_extrinsics"].as_str().unwrap(), e["camera_intrinsics"].as_str().unwrap());
-    let py = Command::new("python3").args(["-c", script, s(&le), le_out, s(&ci), ci_out]).output();
-    let py = py.expect("this test needs python3 (the lab's tools read these bodies with Python's json and datetime)");
-    let p: Value = serde_json::from_slice(&ok(&py).stdout).unwrap();
-    assert_eq!(p, json!({"same": true, "zoned": true, "epoch": 1_739_212_325.0}), "Python reads the same numbers");
+    python_reads_the_same([s(&le), le_out], [s(&ci), ci_out], 1_739_212_325.0);
+}
 
-    // The .pkg side: the lab's archives in, the API bodies out, the same numbers.
+/// The lab's `.pkg` archives in, its API bodies and its archives out: the same numbers.
+#[test]
+fn pkg_files_come_out_as_api_bodies_and_pkgs_with_the_same_numbers() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let key = keygen(d);
     let lens = LensPkg {
         camera_matrix: std::array::from_fn(|i| K[i / 3][i % 3]),
         distortion: DIST.to_vec(),
@@ -477,18 +503,29 @@ print(json.dumps({"same": same, "zoned": t.tzinfo is not None, "epoch": t.timest
     let (lp, xp) = (d.join("lens.pkg"), d.join("laser.pkg"));
     std::fs::write(&lp, lens.write().unwrap()).unwrap();
     std::fs::write(&xp, laser.write().unwrap()).unwrap();
-    let file2 = d.join("from-pkg.fslcal");
-    json_out(&fslcal(&["import", s(&lp), s(&xp), "--unit", "FSL-11", "--key", s(&key), "--out", s(&file2), "--json"]));
-    let e2 =
-        json_out(&fslcal(&["export", s(&file2), "--format", "fishsense-api", "--out", s(&d.join("api2")), "--json"]));
-    let ci3: Value =
-        serde_json::from_slice(&std::fs::read(e2["camera_intrinsics"].as_str().unwrap()).unwrap()).unwrap();
-    assert_eq!(bits(&ci3["camera_matrix"]), bits(&intrinsics["camera_matrix"]));
-    assert!(ci3["camera_id"].is_null(), "no --camera-id: null, as the API's PUT fills it from its path");
-    let pkg_back =
-        json_out(&fslcal(&["export", s(&file2), "--format", "fishsense-pkg", "--out", s(&d.join("pkg")), "--json"]));
-    let lens_back = LensPkg::read(&std::fs::read(pkg_back["lens"].as_str().unwrap()).unwrap()).unwrap();
-    assert_eq!(lens_back, lens);
+    let file = d.join("from-pkg.fslcal");
+    let v = json_out(&fslcal(&[
+        "import",
+        s(&lp),
+        s(&xp),
+        "--unit",
+        "FSL-11",
+        "--key",
+        s(&key),
+        "--out",
+        s(&file),
+        "--json",
+    ]));
+    assert_eq!(v["provenance"], "imported-pkg");
+    let e = json_out(&fslcal(&["export", s(&file), "--format", "fishsense-api", "--out", s(&d.join("api")), "--json"]));
+    let ci: Value = serde_json::from_slice(&std::fs::read(e["camera_intrinsics"].as_str().unwrap()).unwrap()).unwrap();
+    assert_eq!(bits(&ci["camera_matrix"]), bits(&json!(K)));
+    assert_eq!(bits(&ci["distortion_coefficients"]), bits(&json!(DIST)));
+    assert!(ci["camera_id"].is_null(), "no --camera-id: null, as the API's PUT fills it from its path");
+    let back =
+        json_out(&fslcal(&["export", s(&file), "--format", "fishsense-pkg", "--out", s(&d.join("pkg")), "--json"]));
+    assert_eq!(LensPkg::read(&std::fs::read(back["lens"].as_str().unwrap()).unwrap()).unwrap(), lens);
+    assert_eq!(LaserPkg::read(&std::fs::read(back["laser"].as_str().unwrap()).unwrap()).unwrap(), laser);
 }
 
 fn pkg_with_metadata(path: &Path, metadata: &str, arrays: &[(&str, &[usize], &[f64])]) {
