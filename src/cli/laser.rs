@@ -139,7 +139,11 @@ struct CameraInput {
 /// Reads `--camera`: the lab's lens (moved from --camera-frame into the developed picture)
 /// or what `signing::read_camera` reads.
 fn read_camera(args: &LaserArgs) -> anyhow::Result<CameraInput> {
-    let bytes = std::fs::read(&args.camera)
+    // Enough to tell a lab lens (a gzip magic, or a small JSON body) from the others, which
+    // `signing::read_camera` reads itself.
+    let mut bytes = Vec::new();
+    std::fs::File::open(&args.camera)
+        .and_then(|f| std::io::Read::read_to_end(&mut std::io::Read::take(f, 1 << 20), &mut bytes))
         .with_context(|| format!("{}: cannot read the camera file", args.camera.display()))?;
     if !lab_files::is_lab_lens(&bytes) {
         let (camera, prior, expected) = signing::read_camera(&args.camera, &args.signing)?;
