@@ -37,18 +37,18 @@ impl FromStr for Water {
 }
 
 /// Optical properties of the water, per channel (R, G, B).
-struct WaterOptics {
+pub(crate) struct WaterOptics {
     /// Attenuation coefficient, 1/m.
-    attenuation_per_m: [f64; 3],
+    pub attenuation_per_m: [f64; 3],
     /// Backscatter veil at infinite range, 8-bit levels.
-    veil: [f64; 3],
+    pub veil: [f64; 3],
     /// Gaussian blur of the whole image, pixels.
-    blur_sigma_px: f64,
+    pub blur_sigma_px: f64,
     /// Sensor noise, 8-bit levels, 1 sigma.
-    noise_levels: f64,
+    pub noise_levels: f64,
     /// Forward scatter around the laser dot: halo width factor and relative strength.
-    halo_width: f64,
-    halo_strength: f64,
+    pub halo_width: f64,
+    pub halo_strength: f64,
 }
 
 impl Water {
@@ -217,14 +217,14 @@ impl RayGrid {
 const WHITE: f64 = 0.85;
 const BLACK: f64 = 0.06;
 /// Light falling on the scene, 8-bit levels for a perfect white at zero range.
-const ILLUMINATION: f64 = 265.0;
+pub(crate) const ILLUMINATION: f64 = 265.0;
 /// The background (sand and reef) sits this far behind everything.
 const BACKGROUND_RANGE_M: f64 = 7.0;
 /// Laser: radiance of the dot on white at zero range before divergence, 8-bit levels; the
 /// beam's diameter at the exit and its full divergence.
-const LASER_RADIANCE: f64 = 1200.0;
-const BEAM_DIAMETER_M: f64 = 0.003;
-const BEAM_DIVERGENCE_RAD: f64 = 0.0008;
+pub(crate) const LASER_RADIANCE: f64 = 1200.0;
+pub(crate) const BEAM_DIAMETER_M: f64 = 0.003;
+pub(crate) const BEAM_DIVERGENCE_RAD: f64 = 0.0008;
 /// How a 532 nm dot lands in the camera's channels (colour filter cross-talk).
 const LASER_COLOUR: [f64; 3] = [0.30, 1.0, 0.40];
 /// A black square returns this share of what a white one returns of the laser.
@@ -258,7 +258,7 @@ impl SlateTexture {
     }
 
     /// Bilinear albedo at a target-frame point, `None` off the slate.
-    fn albedo_at(&self, q: &Vec3) -> Option<[f64; 3]> {
+    pub(crate) fn albedo_at(&self, q: &Vec3) -> Option<[f64; 3]> {
         if q.x < 0.0 || q.y < 0.0 || q.x > self.width_m || q.y > self.height_m {
             return None;
         }
@@ -373,7 +373,7 @@ pub(crate) fn value_noise(seed: u64, u: f64, v: f64, cell: f64) -> f64 {
     top + (bottom - top) * s(fy)
 }
 
-fn through_water(optics: &WaterOptics, albedo: [f64; 3], range_m: f64) -> [f64; 3] {
+pub(crate) fn through_water(optics: &WaterOptics, albedo: [f64; 3], range_m: f64) -> [f64; 3] {
     let mut out = [0.0; 3];
     for k in 0..3 {
         let t = (-optics.attenuation_per_m[k] * range_m).exp();
@@ -384,7 +384,7 @@ fn through_water(optics: &WaterOptics, albedo: [f64; 3], range_m: f64) -> [f64; 
 
 /// A soft-edged disc plus a Gaussian halo, added to a float RGB image. The profile is
 /// radially symmetric about `centre`, so its intensity-weighted centre is `centre`.
-fn add_spot(
+pub(crate) fn add_spot(
     img: &mut [[f32; 3]],
     width: usize,
     height: usize,
@@ -415,7 +415,7 @@ fn add_spot(
 }
 
 /// Separable Gaussian blur in place.
-fn blur(img: &mut Vec<[f32; 3]>, width: usize, height: usize, sigma: f64) {
+pub(crate) fn blur(img: &mut Vec<[f32; 3]>, width: usize, height: usize, sigma: f64) {
     if sigma <= 0.0 {
         return;
     }
@@ -683,17 +683,17 @@ pub(crate) fn quantise_with_noise(img: &[[f32; 3]], w: usize, h: usize, noise: f
 }
 
 /// Rotation by `angle` about the unit `axis` (Rodrigues), row-major.
-fn axis_angle(axis: Vec3, angle: f64) -> nalgebra::Matrix3<f64> {
+pub(crate) fn axis_angle(axis: Vec3, angle: f64) -> nalgebra::Matrix3<f64> {
     nalgebra::Rotation3::from_axis_angle(&nalgebra::Unit::new_normalize(axis), angle).into_inner()
 }
 
-fn to_rows(m: &nalgebra::Matrix3<f64>) -> [[f64; 3]; 3] {
+pub(crate) fn to_rows(m: &nalgebra::Matrix3<f64>) -> [[f64; 3]; 3] {
     [0, 1, 2].map(|i| [0, 1, 2].map(|j| m[(i, j)]))
 }
 
 /// A random board orientation: turned in its plane by up to `inplane_deg`, tilted about a
 /// random axis in the image plane by up to `tilt_deg`.
-fn random_rotation(rng: &mut SplitMix, tilt_deg: f64, inplane_deg: f64) -> nalgebra::Matrix3<f64> {
+pub(crate) fn random_rotation(rng: &mut SplitMix, tilt_deg: f64, inplane_deg: f64) -> nalgebra::Matrix3<f64> {
     let phi = rng.range(0.0, std::f64::consts::TAU);
     let tilt = rng.range(0.0, tilt_deg).to_radians();
     let spin = rng.range(-inplane_deg, inplane_deg).to_radians();
@@ -702,7 +702,7 @@ fn random_rotation(rng: &mut SplitMix, tilt_deg: f64, inplane_deg: f64) -> nalge
 
 /// Whether the whole physical board (sampled along its edges) is in the image, at least
 /// `margin_px` from the border.
-fn target_in_frame(camera: &CameraModel, o: &[[f64; 3]; 4], pose: &Pose, margin_px: f64) -> bool {
+pub(crate) fn target_in_frame(camera: &CameraModel, o: &[[f64; 3]; 4], pose: &Pose, margin_px: f64) -> bool {
     (0..4).all(|k| {
         let (a, b) = (Vec3::from(o[k]), Vec3::from(o[(k + 1) % 4]));
         (0..=8).all(|i| {
@@ -722,7 +722,7 @@ fn target_in_frame(camera: &CameraModel, o: &[[f64; 3]; 4], pose: &Pose, margin_
 /// translation for a rotation and an "ease" running from 1 down to 0 as attempts fail, so
 /// placements can get tamer), until the whole board is in the frame; falls back to a
 /// face-on board at `fallback_m`.
-fn search_pose(
+pub(crate) fn search_pose(
     rng: &mut SplitMix,
     camera: &CameraModel,
     outline_m: &[[f64; 3]; 4],
