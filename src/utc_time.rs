@@ -56,6 +56,67 @@ pub fn parse_iso(text: &str) -> Option<i64> {
     Some(instant.as_second())
 }
 
+/// Why a time from another tool's file cannot be placed in time.
+#[derive(Clone, Debug, PartialEq, Eq, thiserror::Error)]
+pub enum PlaceTimeError {
+    #[error("`{0}` is not a date and time fslcal reads (ISO 8601, e.g. 2025-02-10T18:32:05+00:00)")]
+    Unreadable(String),
+    #[error("`{0}` has no time zone (a local time, as the lab's 2023 tools wrote it): say where it was written with --timezone, e.g. --timezone America/Los_Angeles or --timezone -08:00")]
+    Naive(String),
+}
+
+/// Reads a time as [`parse_iso`] does, except that a time without a zone is placed in
+/// `zone` and refused without one, where `parse_iso` would take it for UTC.
+pub fn parse_iso_in(text: &str, zone: Option<&jiff::tz::TimeZone>) -> Result<i64, PlaceTimeError> {
+    let unreadable = || PlaceTimeError::Unreadable(text.trim().to_string());
+    let pieces = Pieces::parse(text.trim()).map_err(|_| unreadable())?;
+    let zoned = pieces.to_numeric_offset().is_some() || pieces.to_time_zone().map_err(|_| unreadable())?.is_some();
+    match (zoned, zone) {
+        (true, _) => parse_iso(text).ok_or_else(unreadable),
+        (false, Some(zone)) => {
+            let civil = pieces.date().to_datetime(pieces.time().unwrap_or(Time::midnight()));
+            zone.to_timestamp(civil).map(|t| t.as_second()).map_err(|_| unreadable())
+        }
+        (false, None) => Err(PlaceTimeError::Naive(text.trim().to_string())),
+    }
+}
+
+/// `--timezone`: an IANA zone (`America/Los_Angeles`) or a fixed offset (`-08:00`, `+0530`,
+/// `Z`, `UTC`).
+pub fn parse_zone(text: &str) -> Result<jiff::tz::TimeZone, String> {
+    let t = text.trim();
+    if t.eq_ignore_ascii_case("utc") || t.eq_ignore_ascii_case("z") {
+        return Ok(jiff::tz::TimeZone::UTC);
+    }
+    if t.starts_with(['+', '-']) {
+        let digits: String = t[1..].chars().filter(|c| *c != ':').collect();
+        let (h, m) = match digits.len() {
+            2 => (digits.parse::<i32>().ok(), Some(0)),
+            4 => (digits[..2].parse::<i32>().ok(), digits[2..].parse::<i32>().ok()),
+            _ => (None, None),
+        };
+        // Earth's offsets run from -12:00 to +14:00.
+        let (Some(h @ 0..=14), Some(m @ 0..=59)) = (h, m) else {
+            return Err(format!("`{t}` is not an offset like -08:00"));
+        };
+        let seconds = (h * 3600 + m * 60) * if t.starts_with('-') { -1 } else { 1 };
+        return jiff::tz::Offset::from_seconds(seconds)
+            .map(jiff::tz::TimeZone::fixed)
+            .map_err(|_| format!("`{t}` is not an offset like -08:00"));
+    }
+    jiff::tz::TimeZone::get(t).map_err(|_| {
+        format!(
+            "`{t}` is not a time zone fslcal knows (an IANA name like America/Los_Angeles, or an offset like -08:00)"
+        )
+    })
+}
+
+/// `2026-06-01T09:30:00+00:00`: ISO 8601 with its zone spelled as Python's `isoformat()`
+/// writes it, which every Python's `datetime.fromisoformat` reads (the lab's API bodies).
+pub fn format_iso_offset(t_s: i64) -> String {
+    format_with(t_s, "%Y-%m-%dT%H:%M:%S+00:00")
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -104,5 +165,22 @@ mod tests {
             assert_eq!(parse_iso(text), Some(1_780_306_200), "{text}");
         }
         assert_eq!(parse_iso("2026-06-01T09:30:00[Not/AZone]"), None);
+    }
+
+    #[test]
+    fn a_naive_time_needs_a_zone_and_a_zoned_one_keeps_its_own() {
+        // The lab's 2023 metadata: `str(datetime.now())` in San Diego in June (UTC-7).
+        let naive = "2026-06-01 02:30:00.123456";
+        assert!(matches!(parse_iso_in(naive, None), Err(PlaceTimeError::Naive(_))));
+        let la = parse_zone("America/Los_Angeles").unwrap();
+        assert_eq!(parse_iso_in(naive, Some(&la)), Ok(1_780_306_200));
+        assert_eq!(parse_iso_in(naive, Some(&parse_zone("-07:00").unwrap())), Ok(1_780_306_200));
+        assert_eq!(parse_iso_in(naive, Some(&parse_zone("-0700").unwrap())), Ok(1_780_306_200));
+        // A time that says its zone is not moved by --timezone.
+        assert_eq!(parse_iso_in("2026-06-01 09:30:00+00:00", Some(&la)), Ok(1_780_306_200));
+        assert!(matches!(parse_iso_in("soon", Some(&la)), Err(PlaceTimeError::Unreadable(_))));
+        assert!(parse_zone("Mars/Olympus").is_err() && parse_zone("+25").is_err());
+        assert_eq!(format_iso_offset(1_780_306_200), "2026-06-01T09:30:00+00:00");
+        assert_eq!(parse_iso(&format_iso_offset(1_780_306_200)), Some(1_780_306_200));
     }
 }

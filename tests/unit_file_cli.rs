@@ -111,7 +111,10 @@ fn imported_file_inspects_and_verifies_and_every_failure_is_named() {
     assert_eq!(v["signature"], "valid");
     assert_eq!(v["camera"]["image_size"], serde_json::json!([4000, 3000]));
     assert_eq!(v["camera"]["fx"].as_f64(), Some(LENS_K[0]));
-    assert_eq!(v["camera"]["cy"].as_f64(), Some(LENS_K[5]));
+    // The lab's lenses are made in the TG-6's 4040x3016 readout; fslcal's picture starts
+    // 8 px in (docs/conventions.md).
+    assert_eq!(v["camera"]["cx"].as_f64(), Some(LENS_K[2] - 8.0));
+    assert_eq!(v["camera"]["cy"].as_f64(), Some(LENS_K[5] - 8.0));
     let dist: Vec<f64> = v["camera"]["dist"].as_array().unwrap().iter().map(|x| x.as_f64().unwrap()).collect();
     assert_eq!(dist, LENS_DIST);
     assert_eq!(v["laser"]["origin_m"], serde_json::json!(LASER_POS));
@@ -119,6 +122,7 @@ fn imported_file_inspects_and_verifies_and_every_failure_is_named() {
     assert_eq!(v["camera_identity"]["serial"], "BHV204411");
     assert_eq!(v["made_utc"], "2026-06-01T09:30:00Z");
     assert_eq!(v["method"], "imported");
+    assert_eq!(v["provenance"], "imported-pkg");
     assert_eq!(v["size_bytes"].as_u64(), Some(bytes.len() as u64));
     let signer = v["signer"].as_str().unwrap().to_string();
     assert_eq!(signer.len(), 16);

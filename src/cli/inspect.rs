@@ -4,7 +4,7 @@ use crate::calibration::camera_json;
 use crate::units::keys::hex;
 use crate::units::signed_file::{self, UnitFileError};
 use crate::utc_time;
-use fslcal_core::unit_file::SignedUnitFile;
+use fslcal_core::unit_file::{Provenance, SignedUnitFile};
 use serde_json::json;
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
@@ -56,6 +56,7 @@ pub(super) fn unit_file_json(path: &Path, size_bytes: usize, f: &SignedUnitFile<
         "water_depth_m": c.water_depth_m,
         "depth_range_m": c.depth_range_m,
         "method": c.method.name(),
+        "provenance": c.provenance.name(),
         "fit": c.fit.map(|q| json!({
             "photos_used": q.photos_used,
             "photos_total": q.photos_total,
@@ -110,6 +111,7 @@ fn summary(path: &Path, size: usize, f: &SignedUnitFile<'_>) -> String {
         c.target.unwrap_or("-"),
         c.method.name()
     );
+    s += &format!("source    {}\n", provenance_text(c.provenance));
     if let Some(r) = c.depth_range_m {
         s += &format!("dots      {:.2}-{:.2} m deep\n", r[0], r[1]);
     }
@@ -133,6 +135,15 @@ fn summary(path: &Path, size: usize, f: &SignedUnitFile<'_>) -> String {
     };
     s += &format!("signer    {} (public key {})\nsignature {verdict}\n", f.key_id(), hex(&f.signer));
     s
+}
+
+/// Where a calibration came from, in words.
+pub(super) fn provenance_text(p: Provenance) -> &'static str {
+    match p {
+        Provenance::Fitted => "fitted by fslcal from calibration photos",
+        Provenance::LabPkg => "imported from the lab's .pkg files (no fit figures, uncertainty unknown)",
+        Provenance::LabApi => "imported from the lab's API JSON (no fit figures, uncertainty unknown)",
+    }
 }
 
 pub fn run(args: InspectArgs) -> anyhow::Result<ExitCode> {

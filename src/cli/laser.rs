@@ -1,18 +1,25 @@
 //! `fslcal laser`: the command a diver runs before a dive.
 
 use super::body_check::BodyCheckArgs;
-use super::pixels::{parse_pixel, read_dots_csv};
+use super::lab_files::{self, LAB_FRAME};
+use super::pixels::parse_pixel;
 use super::progress;
 use super::signing::PriorUnit;
 use super::signing::{self, SigningArgs};
 use crate::atomic_file::write_atomically;
-use crate::documents::laser::{LaserDocument, LaserLineJson, COVARIANCE_PARAMETERS};
+use crate::documents::laser::{
+    DotsFileJson, DotsFrameJson, LabEquivalentJson, LaserDocument, LaserLineJson, SkippedTaskJson,
+    COVARIANCE_PARAMETERS,
+};
 use crate::documents::{self, CameraJson, SCHEMA_VERSION};
 use crate::dot::candidates::DotDetectorParams;
 use crate::laser::fit::{Gates, Method};
 use crate::laser::gates::GateResult;
+use crate::laser::lab_equivalent::{lab_equivalent, LabEquivalent};
 use crate::laser::pipeline::{calibrate, HandDots, LaserCalibration, LaserError, LaserJob, PhotoReport, PhotoStatus};
 use crate::laser::target::{Target, TargetArg};
+use crate::photo::dot_labels::{self, DotsFile, DotsFormat};
+use crate::photo::frame::{Frame, FramePlace, ImageGeometry};
 use crate::photo::identity::{photos_exif, ExpectedCamera, PhotosExif};
 use crate::report::{
     self,
@@ -23,6 +30,7 @@ use crate::utc_time;
 use anyhow::{bail, Context};
 use fslcal_core::unit_file::{CameraIdentity, FitMethod, FitQuality, Provenance, UnitFile};
 use fslcal_core::CameraModel;
+use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
@@ -33,9 +41,17 @@ use std::process::ExitCode;
 #[derive(clap::Args, Debug)]
 pub struct LaserArgs {
     /// Camera intrinsics: OpenCV FileStorage YAML, as OpenCV's calibration sample or
-    /// `fslcal camera --out` writes it, or a previous .fslcal of the same unit.
+    /// `fslcal camera --out` writes it, a previous .fslcal of the same unit, or the lab's
+    /// lens calibration (a `.pkg`, or its API's `CameraIntrinsics` JSON) made in
+    /// --camera-frame.
     #[arg(long, value_name = "CAMERA")]
     camera: PathBuf,
+
+    /// The frame a lab lens given as --camera was made in, pixels: the lab's are made on the
+    /// TG-6's whole sensor readout, 4040x3016; it is moved into the 4000x3000 picture fslcal
+    /// develops (docs/conventions.md).
+    #[arg(long, value_name = "WxH", default_value = LAB_FRAME, value_parser = lab_files::parse_frame)]
+    camera_frame: Frame,
 
     /// The target in the photos: `checkerboard:COLSxROWS@SQUAREmm` with inner corners, e.g.
     /// `checkerboard:14x10@42.17mm`, or `slate:PATH.toml`, a taped dive slate defined by its
@@ -53,13 +69,32 @@ pub struct LaserArgs {
     #[arg(long = "dot", value_name = "PHOTO=X,Y")]
     dot: Vec<String>,
 
-    /// Hand-labelled dots, a CSV with `file,x,y` rows (a header row is allowed); `file` may
-    /// be a path or a file name.
-    #[arg(long = "dots", value_name = "CSV")]
+    /// Hand-labelled dots: a CSV with `file,x,y` rows (a header row is allowed; `file` a
+    /// path or a file name), or the lab's Label Studio JSON export (keypoints in percent of
+    /// the image they were clicked on; each task's photo matched by file stem, so
+    /// `P2100001.JPG` labels `P2100001.ORF`; the newest annotation of a photo counts). Told
+    /// apart by content; labelled photos skip detection.
+    #[arg(long = "dots", value_name = "FILE")]
     dots: Option<PathBuf>,
 
+    /// The Label Studio keypoint label of the laser dot in --dots.
+    #[arg(long, value_name = "LABEL", default_value = "Green Laser")]
+    dot_label: String,
+
+    /// The frame a --dots CSV's pixels were measured in, pixels (default: the camera's).
+    /// A Label Studio export says its own (`original_width` x `original_height`).
+    #[arg(long, value_name = "WxH", value_parser = lab_files::parse_frame, requires = "dots")]
+    dots_frame: Option<Frame>,
+
+    /// What the --dots images showed: `as-shot` photos, or photos `undistorted` with the
+    /// camera's lens (the lab's `fsl preprocess --lens-calibration` JPGs), whose dots are
+    /// distorted back. Default: `undistorted` for a Label Studio export made on the lab's
+    /// 4040x3016 JPGs, `as-shot` otherwise.
+    #[arg(long, value_enum, value_name = "IMAGE", requires = "dots")]
+    dots_image: Option<ImageGeometry>,
+
     /// Plausible camera-to-laser baseline for the rig, millimetres.
-    #[arg(long, value_name = "MIN,MAX", default_value = "78,145", value_parser = parse_range_mm)]
+    #[arg(long, value_name = "MIN,MAX", default_value = "78,145", value_parser = super::lab_files::parse_range_mm)]
     baseline_range_mm: (f64, f64),
 
     /// A used dot must lie within this many pixels of the fitted line's image.
@@ -92,35 +127,120 @@ pub struct LaserArgs {
     photos: Vec<PathBuf>,
 }
 
-fn parse_range_mm(s: &str) -> Result<(f64, f64), String> {
-    let (a, b) = s.split_once(',').ok_or("expected MIN,MAX in millimetres, e.g. 78,145")?;
-    let (a, b): (f64, f64) = (
-        a.trim().parse().map_err(|_| format!("`{a}` is not a number"))?,
-        b.trim().parse().map_err(|_| format!("`{b}` is not a number"))?,
-    );
-    if !(a > 0.0 && b > a) {
-        return Err("expected 0 < MIN < MAX".into());
-    }
-    Ok((a / 1e3, b / 1e3))
+/// The camera as given, in the frame fslcal develops the photos in.
+struct CameraInput {
+    camera: CameraModel,
+    prior: Option<PriorUnit>,
+    expected: ExpectedCamera,
+    /// A lab lens: where it came from and how it was moved, for the summary.
+    lab_note: Option<String>,
 }
 
-fn hand_dots(args: &LaserArgs) -> anyhow::Result<HandDots> {
-    let mut dots = HandDots::default();
-    if let Some(csv) = &args.dots {
-        for (file, px) in read_dots_csv(csv)? {
-            dots.insert(Path::new(&file), px);
-        }
+/// Reads `--camera`: the lab's lens (moved from --camera-frame into the developed picture)
+/// or what `signing::read_camera` reads.
+fn read_camera(args: &LaserArgs) -> anyhow::Result<CameraInput> {
+    // Enough to tell a lab lens (a gzip magic, or a small JSON body) from the others, which
+    // `signing::read_camera` reads itself.
+    let mut bytes = Vec::new();
+    std::fs::File::open(&args.camera)
+        .and_then(|f| std::io::Read::read_to_end(&mut std::io::Read::take(f, 1 << 20), &mut bytes))
+        .with_context(|| format!("{}: cannot read the camera file", args.camera.display()))?;
+    if !lab_files::is_lab_lens(&bytes) {
+        let (camera, prior, expected) = signing::read_camera(&args.camera, &args.signing)?;
+        return Ok(CameraInput { camera, prior, expected, lab_note: None });
     }
+    // The lens's date does not enter a fit: a date without a zone is no reason to refuse.
+    let lens = lab_files::read_lens(&args.camera, args.camera_frame, Some(&jiff::tz::TimeZone::UTC))?;
+    let from = args.camera_frame;
+    let map = from.map_to(&from.developed()).with_context(|| args.camera.display().to_string())?;
+    let lab_note = format!(
+        "{} from {}, made in {}: principal point {} into {}",
+        args.camera.display(),
+        lens.format.describe(),
+        from.describe(),
+        map.describe(),
+        map.to.describe()
+    );
+    Ok(CameraInput {
+        camera: map.camera(&lens.camera),
+        prior: None,
+        expected: ExpectedCamera::default(),
+        lab_note: Some(lab_note),
+    })
+}
+
+/// The hand-given dots by photo, each in the camera's pixels, and what the --dots file gave.
+fn hand_dots(args: &LaserArgs, camera: &CameraModel) -> anyhow::Result<(HandDots, Option<DotsFileJson>)> {
+    let mut dots = HandDots::default();
+    let report = match &args.dots {
+        Some(path) => Some(file_dots(args, path, camera, &mut dots)?),
+        None => None,
+    };
     for d in &args.dot {
         let (photo, xy) = d.split_once('=').unwrap_or((d, ""));
         let px = parse_pixel(xy).with_context(|| format!("--dot {d}: expected PHOTO=X,Y with X and Y in pixels"))?;
         dots.insert(Path::new(photo), px);
     }
-    Ok(dots)
+    Ok((dots, report))
+}
+
+/// What the lab's Label Studio export of its `fsl preprocess` JPGs is: clicked on the whole
+/// readout, undistorted.
+fn default_image(file: &DotsFile) -> ImageGeometry {
+    let on_lab_jpgs = file.format == DotsFormat::LabelStudio
+        && file.dots.iter().all(|d| d.frame.is_some_and(|f| matches!(f.place, FramePlace::Readout(_))));
+    if on_lab_jpgs {
+        ImageGeometry::Undistorted
+    } else {
+        ImageGeometry::AsShot
+    }
+}
+
+/// Reads the --dots file, matches its dots to the photos and puts each in the camera's
+/// pixels: moved from the frame it was clicked in, distorted back when clicked on an
+/// undistorted image.
+fn file_dots(args: &LaserArgs, path: &Path, camera: &CameraModel, out: &mut HandDots) -> anyhow::Result<DotsFileJson> {
+    let file = dot_labels::read(path, &args.dot_label)?;
+    let (matched, unmatched) =
+        dot_labels::match_photos(&file, &args.photos).map_err(|e| anyhow::anyhow!("{}: {e}", path.display()))?;
+    let to = Frame::of_camera(camera);
+    let image = args.dots_image.unwrap_or_else(|| default_image(&file));
+    let mut frames: BTreeMap<String, DotsFrameJson> = BTreeMap::new();
+    for (photo, dot) in &matched {
+        let from = dot.frame.or(args.dots_frame).unwrap_or(to);
+        let map = from.map_to(&to).with_context(|| format!("{}: the dot for {}", path.display(), dot.photo))?;
+        let px = image.as_shot(camera, map.pixel(dot.pixel)).with_context(|| {
+            format!("{}: the dot for {} lies where the lens model cannot distort it back", path.display(), dot.photo)
+        })?;
+        out.insert(photo, px);
+        let f = frames.entry(from.to_string()).or_insert(DotsFrameJson {
+            size: from.to_string(),
+            dots: 0,
+            shift_px: [map.shift_px.x, map.shift_px.y],
+        });
+        f.dots += 1;
+    }
+    Ok(DotsFileJson {
+        file: path.display().to_string(),
+        format: file.format.name().into(),
+        entries: file.entries,
+        dots: file.dots.len(),
+        matched: matched.len(),
+        unmatched: unmatched.iter().map(|s| s.to_string()).collect(),
+        label: (file.format == DotsFormat::LabelStudio).then(|| args.dot_label.clone()),
+        frames: frames.into_values().collect(),
+        image: image.name().into(),
+        newest_of_several: file.newest_of_several.clone(),
+        skipped: file
+            .skipped
+            .iter()
+            .map(|(task, why)| SkippedTaskJson { task: task.clone(), why: why.to_string() })
+            .collect(),
+    })
 }
 
 pub fn run(args: LaserArgs) -> anyhow::Result<ExitCode> {
-    let (camera, prior, expected) = signing::read_camera(&args.camera, &args.signing)?;
+    let CameraInput { camera, prior, expected, lab_note } = read_camera(&args)?;
     let signed_out = args.out.as_deref().filter(|o| signing::is_unit_file_path(o));
     if let Some(out) = signed_out {
         // Refuse before the long fit, not after it.
@@ -129,15 +249,23 @@ pub fn run(args: LaserArgs) -> anyhow::Result<ExitCode> {
         check.unit_and_key(out)?;
         keys::read_secret(check.key.as_deref().unwrap_or(out))?;
     }
-    let job = job(&args, camera, &expected)?;
+    let (hand_dots, dots_file) = hand_dots(&args, &camera)?;
+    let job = job(&args, camera, &expected, hand_dots)?;
     let cal = fit(&args, &job)?;
     // Read once: the JSON reports it and a signed file records the body and depth from it.
     let identity = photos_exif(&args.photos);
-    let document = document(&args, &job, &cal, &identity);
+    let lab = lab_equivalent(&job.camera, &cal.fit);
+    let mut document = document(&args, &job, &cal, &identity);
+    document.lab_equivalent = lab.as_ref().map(lab_equivalent_json);
+    document.dots_file = dots_file;
     if args.json {
         println!("{}", documents::to_text(&document)?);
     } else {
         print!("{}", summary(&args, &job, &cal));
+        print!("{}", lab_inputs_summary(lab_note.as_deref(), document.dots_file.as_ref()));
+        if let Some(l) = &lab {
+            print!("{}", lab_equivalent_summary(l));
+        }
     }
     write_report(&args, &job, LaserOutcome::Fitted(&cal))?;
     if !cal.accepted() {
@@ -162,8 +290,12 @@ pub fn run(args: LaserArgs) -> anyhow::Result<ExitCode> {
 }
 
 /// The run's settings from the options, once the photos are there and from the right body.
-fn job(args: &LaserArgs, camera: CameraModel, expected: &ExpectedCamera) -> anyhow::Result<LaserJob> {
-    let hand_dots = hand_dots(args)?;
+fn job(
+    args: &LaserArgs,
+    camera: CameraModel,
+    expected: &ExpectedCamera,
+    hand_dots: HandDots,
+) -> anyhow::Result<LaserJob> {
     for p in &args.photos {
         if !p.is_file() {
             bail!("{}: no such photo", p.display());
@@ -276,7 +408,97 @@ fn document(args: &LaserArgs, job: &LaserJob, cal: &LaserCalibration, identity: 
         focal_length_mm: *focal,
         photo_exif: exif.clone(),
         unit: None,
+        dots_file: None,
+        lab_equivalent: None,
     }
+}
+
+fn lab_equivalent_json(l: &LabEquivalent) -> LabEquivalentJson {
+    LabEquivalentJson {
+        method: "average".into(),
+        dots: l.dots,
+        left_out_by_fslcal: l.left_out_by_fslcal,
+        origin_m: l.laser.origin_m,
+        direction: l.laser.direction,
+        baseline_m: l.laser.baseline_m(),
+        angle_deg: l.angle_deg,
+        origin_difference_mm: l.origin_difference_mm,
+        distance_difference_m: l.distance_difference_m.iter().map(|(z, d)| (format!("{z}"), *d)).collect(),
+    }
+}
+
+/// Where a lab lens and a --dots file's dots came from and how they were placed.
+fn lab_inputs_summary(camera: Option<&str>, dots: Option<&DotsFileJson>) -> String {
+    let mut s = String::new();
+    if let Some(c) = camera {
+        s += &format!("\ncamera: {c}\n");
+    }
+    let Some(d) = dots else { return s };
+    let what = match &d.label {
+        Some(label) => format!("a Label Studio export: {} tasks, {} dots labelled \"{label}\"", d.entries, d.dots),
+        None => format!("a CSV of {} dots", d.dots),
+    };
+    s += &format!("\ndots: {}, {what}; {} used for photos given", d.file, d.matched);
+    if !d.unmatched.is_empty() {
+        s += &format!(", {} name no photo given", d.unmatched.len());
+    }
+    s += "\n";
+    for f in &d.frames {
+        let shift = if f.shift_px == [0.0, 0.0] {
+            "in the camera's pixels".to_string()
+        } else {
+            format!("moved by ({:+}, {:+}) px into the camera's pixels", f.shift_px[0], f.shift_px[1])
+        };
+        s += &format!("  {} dots clicked on {} images ({}), {shift}\n", f.dots, f.size, d.image);
+    }
+    if d.image == ImageGeometry::Undistorted.name() {
+        s += "  clicked on undistorted images: distorted back with the camera's lens\n";
+    }
+    if !d.newest_of_several.is_empty() {
+        s += &format!("  several annotations of {}: the newest used\n", d.newest_of_several.join(", "));
+    }
+    for t in &d.skipped {
+        s += &format!("  skipped {}: {}\n", t.task, t.why);
+    }
+    s
+}
+
+/// The lab's `fsl calibrate-laser` result on the same dots, beside fslcal's.
+fn lab_equivalent_summary(l: &LabEquivalent) -> String {
+    let o = l.laser.origin_m;
+    let d = l.laser.direction;
+    let mut s = format!(
+        "\nthe lab's fsl calibrate-laser on these dots (averaging fit on all {} dots{}):\n",
+        l.dots,
+        match l.left_out_by_fslcal {
+            0 => String::new(),
+            n => format!(", {n} of which fslcal left out"),
+        }
+    );
+    s += &format!(
+        "  laser origin ({:.2}, {:.2}, 0) mm, baseline {:.1} mm; direction ({:.5}, {:.5}, {:.5})\n",
+        o[0] * 1e3,
+        o[1] * 1e3,
+        l.laser.baseline_m() * 1e3,
+        d[0],
+        d[1],
+        d[2]
+    );
+    s += &format!(
+        "  from fslcal's: {:.3} deg apart, origins {:.2} mm apart; a dot fslcal puts at",
+        l.angle_deg, l.origin_difference_mm
+    );
+    let diffs: Vec<String> = l
+        .distance_difference_m
+        .iter()
+        .map(|(z, d)| match d {
+            Some(d) => format!(" {z:.0} m it puts {:+.1} mm ({:+.2}%)", d * 1e3, 100.0 * d / z),
+            None => format!(" {z:.0} m it cannot place"),
+        })
+        .collect();
+    s += &diffs.join(",");
+    s += "\n";
+    s
 }
 
 /// What the signed unit file records of this fit; the unit and camera identity are filled

@@ -15,6 +15,7 @@ use crate::fish::measure::{
     MeasureParams, Withheld,
 };
 use crate::fish::{fish_ends, FishEnds, HeadCall, Mask};
+use crate::photo::frame::Frame;
 use anyhow::{bail, Context};
 use fslcal_core::Vec2;
 use rayon::prelude::*;
@@ -416,23 +417,33 @@ fn measure_fish(
 /// The fish in `photo`: every label that names it, or its mask's one fish.
 fn fish_in_photo(photo: &Path, source: &Ends, size: Option<(u32, u32)>) -> Vec<FishInPhoto> {
     match source {
-        Ends::Labels(labels) => labels
-            .iter()
-            .filter(|l| l.names_photo(photo))
-            .map(|l| FishInPhoto {
-                species: l.species.clone(),
-                ends: Ok(EndPoints {
-                    head_px: l.head_px,
-                    tail_px: l.tail_px,
-                    length_over_chord: 1.0,
-                    cut_by_edge: size.is_some_and(|s| ends_at_edge(s, [l.head_px, l.tail_px], 2.0)),
-                    head_call: HeadCall::Labelled,
-                }),
-                label_dot: l.dot_px,
-            })
-            .collect(),
+        Ends::Labels(labels) => {
+            labels.iter().filter(|l| l.names_photo(photo)).map(|l| labelled_fish(l, size)).collect()
+        }
         Ends::Masks(dir) => vec![FishInPhoto { species: None, ends: mask_ends(dir, photo, size), label_dot: None }],
     }
+}
+
+/// A labelled fish in the photo's pixels: moved from the frame it was clicked in
+/// (docs/conventions.md), withheld when that frame cannot be placed on the photo.
+fn labelled_fish(l: &FishLabel, size: Option<(u32, u32)>) -> FishInPhoto {
+    let shift = match (l.frame, size) {
+        (Some(from), Some((w, h))) => from.map_to(&Frame::of_size(w, h)).map(|m| m.shift_px),
+        _ => Ok(Vec2::zeros()),
+    };
+    let at = |p: Vec2| p + *shift.as_ref().unwrap_or(&Vec2::zeros());
+    let (head_px, tail_px) = (at(l.head_px), at(l.tail_px));
+    let ends = match &shift {
+        Err(e) => Err(Withheld::NoEnds { why: EndsMissing::LabelFrame { message: e.to_string() }.into() }),
+        Ok(_) => Ok(EndPoints {
+            head_px,
+            tail_px,
+            length_over_chord: 1.0,
+            cut_by_edge: size.is_some_and(|s| ends_at_edge(s, [head_px, tail_px], 2.0)),
+            head_call: HeadCall::Labelled,
+        }),
+    };
+    FishInPhoto { species: l.species.clone(), ends, label_dot: l.dot_px.map(at) }
 }
 
 /// The end points of the fish in `photo`'s mask in `dir`.
@@ -440,13 +451,22 @@ fn mask_ends(dir: &Path, photo: &Path, size: Option<(u32, u32)>) -> Result<EndPo
     let no_ends = |why: EndsMissing| Withheld::NoEnds { why: why.into() };
     let path = mask_for(dir, photo).ok_or_else(|| no_ends(EndsMissing::NoMask { dir: dir.to_path_buf() }))?;
     let mask = Mask::load(&path).map_err(|e| no_ends(EndsMissing::Mask { message: e.to_string() }))?;
-    if size.is_some_and(|s| s != (mask.width as u32, mask.height as u32)) {
-        return Err(no_ends(EndsMissing::MaskSize { mask: path }));
-    }
+    // A mask of another grid of the same sensor (the lab's 4040x3016 readout) is moved by
+    // the crop; any other size cannot be placed.
+    let mask_frame = Frame::of_size(mask.width as u32, mask.height as u32);
+    let shift = match size {
+        Some((w, h)) => {
+            mask_frame
+                .map_to(&Frame::of_size(w, h))
+                .map_err(|_| no_ends(EndsMissing::MaskSize { mask: path }))?
+                .shift_px
+        }
+        None => Vec2::zeros(),
+    };
     let e = fish_ends(&mask).map_err(|e| no_ends(EndsMissing::Mask { message: e.to_string() }))?;
     Ok(EndPoints {
-        head_px: e.head_px,
-        tail_px: e.tail_px,
+        head_px: e.head_px + shift,
+        tail_px: e.tail_px + shift,
         length_over_chord: e.length_px / e.chord_px.max(1e-9),
         cut_by_edge: e.cut_by_edge,
         head_call: e.head_call,

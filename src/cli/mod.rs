@@ -11,6 +11,7 @@ mod export;
 mod import;
 mod inspect;
 mod keygen;
+mod lab_files;
 #[cfg(feature = "vision")]
 mod laser;
 mod measure;

@@ -1,7 +1,8 @@
 //! Pixels typed on the command line (`X,Y`) and hand-labelled dot files (`file,x,y`), shared
 //! by the commands that take them.
 
-use anyhow::{bail, Context};
+use crate::photo::dot_labels::{self, DotsFormat};
+use anyhow::bail;
 use fslcal_core::Vec2;
 use std::path::Path;
 
@@ -18,22 +19,15 @@ pub fn pixel_arg(s: &str) -> Result<Vec2, String> {
 }
 
 /// A CSV of `file,x,y` rows (a header row and `#` comments allowed): the photo as written
-/// (a path or a file name) and its dot.
+/// (a path or a file name) and its dot. Anything else (a Label Studio export, a file of no
+/// rows) is refused with the reason rather than read as no dots.
 pub fn read_dots_csv(csv: &Path) -> anyhow::Result<Vec<(String, Vec2)>> {
-    let text = std::fs::read_to_string(csv).with_context(|| format!("{}: cannot read the dots file", csv.display()))?;
-    let mut dots = Vec::new();
-    for (n, line) in text.lines().enumerate() {
-        let line = line.trim();
-        if line.is_empty() || line.starts_with('#') {
-            continue;
-        }
-        let (file, xy) = line.split_once(',').unwrap_or((line, ""));
-        match parse_pixel(xy) {
-            Some(px) => dots.push((file.trim().to_string(), px)),
-            // A header row names its columns.
-            None if n == 0 => continue,
-            None => bail!("{}:{}: expected `file,x,y` with x and y in pixels, got `{line}`", csv.display(), n + 1),
-        }
+    let file = dot_labels::read(csv, "laser")?;
+    if file.format != DotsFormat::Csv {
+        bail!(
+            "{}: a Label Studio export; this command takes the dots as a `file,x,y` CSV in the photos' pixels (`fslcal laser --dots` reads Label Studio exports)",
+            csv.display()
+        );
     }
-    Ok(dots)
+    Ok(file.dots.into_iter().map(|d| (d.photo, d.pixel)).collect())
 }

@@ -5,7 +5,7 @@ use crate::calibration::change::{self, REFERENCE_FISH_M};
 use crate::units::registry::{Filed, Registry};
 use crate::utc_time;
 use anyhow::Context;
-use fslcal_core::unit_file::FormatError;
+use fslcal_core::unit_file::{FormatError, Provenance};
 use serde_json::json;
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
@@ -143,6 +143,7 @@ fn list(registry: &Registry, trust: Option<&Path>, as_json: bool) -> anyhow::Res
                         "made_utc": utc_time::format_iso(c.made_utc_s),
                         "age_days": (now - c.made_utc_s) as f64 / 86_400.0,
                         "signer": c.signer.to_string(),
+                        "provenance": c.provenance.name(),
                         "status": status_text(&c.status),
                     })),
                     "last_validation": u.last_validation.as_ref().map(|v| json!({
@@ -173,7 +174,11 @@ fn list(registry: &Registry, trust: Option<&Path>, as_json: bool) -> anyhow::Res
                 utc_time::format_iso(c.made_utc_s),
                 age(now, c.made_utc_s),
                 c.signer.to_string(),
-                status_text(&c.status),
+                // An imported calibration has no fit behind it: say so where its status is read.
+                match c.provenance {
+                    Provenance::Fitted => status_text(&c.status),
+                    p => format!("{} ({})", status_text(&c.status), p.name()),
+                },
             ),
             None => ("-".into(), "-".into(), "-".into(), "no readable calibration".into()),
         };

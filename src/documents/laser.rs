@@ -83,6 +83,80 @@ pub struct LaserDocument {
     /// `FSL-NN`: never written by `fslcal laser`, read when a hand-made file names its unit.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub unit: Option<String>,
+    /// The `--dots` file, as read (written only when one was given).
+    #[serde(default, skip_serializing_if = "Option::is_none", deserialize_with = "report_part")]
+    pub dots_file: Option<DotsFileJson>,
+    /// The lab's own `fsl calibrate-laser` fit on the same dots, beside fslcal's.
+    #[serde(default, skip_serializing_if = "Option::is_none", deserialize_with = "report_part")]
+    pub lab_equivalent: Option<LabEquivalentJson>,
+}
+
+/// What a `--dots` file gave: how it was read and mapped into the camera's pixels.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct DotsFileJson {
+    /// The file as given.
+    pub file: String,
+    /// `csv` or `label-studio`.
+    pub format: String,
+    /// Label Studio: tasks in the export; CSV: dot rows.
+    pub entries: usize,
+    /// Dots read (one per photo).
+    pub dots: usize,
+    /// Of those, the ones that name a photo of the run (used instead of detection).
+    pub matched: usize,
+    /// Photos named by a dot but not given.
+    pub unmatched: Vec<String>,
+    /// Label Studio: the keypoint label taken for the dot.
+    pub label: Option<String>,
+    /// The frames the dots were clicked in, each with its dot count and the shift into the
+    /// camera's pixels.
+    pub frames: Vec<DotsFrameJson>,
+    /// `as-shot`, or `undistorted` (clicked on images undistorted with the camera's lens,
+    /// distorted back before use).
+    pub image: String,
+    /// Photos with several annotations of which the newest was used.
+    pub newest_of_several: Vec<String>,
+    /// Label Studio tasks that gave no dot, and why.
+    pub skipped: Vec<SkippedTaskJson>,
+}
+
+/// One frame dots were clicked in.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct DotsFrameJson {
+    /// `WxH`, pixels.
+    pub size: String,
+    pub dots: usize,
+    /// Added to each dot to put it in the camera's pixels, `[x, y]`.
+    pub shift_px: [f64; 2],
+}
+
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct SkippedTaskJson {
+    /// `task 138992 (P2100001.JPG)`.
+    pub task: String,
+    pub why: String,
+}
+
+/// The lab's `fsl calibrate-laser` fit (the averaging fit on every dot, none left out) on
+/// the dots fslcal used, and how far it lies from fslcal's.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct LabEquivalentJson {
+    /// Always `average`: the thesis's averaging fit the lab's tool runs.
+    pub method: String,
+    /// Dots it was fitted on (every photo with a dot on its target).
+    pub dots: usize,
+    /// Of those, the ones fslcal left out as outliers.
+    pub left_out_by_fslcal: usize,
+    pub origin_m: [f64; 3],
+    pub direction: [f64; 3],
+    pub baseline_m: f64,
+    /// Angle between its direction and fslcal's, degrees.
+    pub angle_deg: f64,
+    /// Distance between the two origins, millimetres.
+    pub origin_difference_mm: f64,
+    /// For a dot fslcal puts at depth 1, 3, 5 m (`"1"`, `"3"`, `"5"`): the lab's depth for
+    /// the same pixel minus fslcal's, metres (null where it has none).
+    pub distance_difference_m: BTreeMap<String, Option<f64>>,
 }
 
 #[cfg(test)]

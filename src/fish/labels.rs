@@ -1,12 +1,13 @@
 //! Hand-labelled fish: a CSV (`photo,head_x,head_y,tail_x,tail_y[,dot_x,dot_y][,species]`)
 //! or Label Studio's JSON export with keypoints, so the lab's existing labels work as they are.
 //!
-//! Label Studio keeps keypoints in percent of the image with (0, 0) at its top-left *edge*;
-//! they become pixels by `u = x% / 100 * w - 0.5` (docs/conventions.md).
+//! Label Studio's export is read by `photo::label_studio`, shared with the laser's hand
+//! dots: keypoints in percent of the image become pixels by `u = x% / 100 * w - 0.5`
+//! (docs/conventions.md).
 
 use super::FishError;
+use crate::photo::frame::Frame;
 use fslcal_core::Vec2;
-use serde_json::Value;
 use std::path::Path;
 
 /// One labelled fish.
@@ -19,6 +20,9 @@ pub struct FishLabel {
     pub tail_px: Vec2,
     pub dot_px: Option<Vec2>,
     pub species: Option<String>,
+    /// The image the points were clicked on (a Label Studio keypoint's `original_width` x
+    /// `original_height`); `None` for a CSV, whose pixels are the photo's.
+    pub frame: Option<Frame>,
 }
 
 impl FishLabel {
@@ -36,7 +40,7 @@ pub fn read_labels(path: &Path) -> Result<Vec<FishLabel>, FishError> {
     let name = path.display().to_string();
     let text =
         std::fs::read_to_string(path).map_err(|e| FishError::Labels { path: name.clone(), why: e.to_string() })?;
-    let labels = if text.trim_start().starts_with(['[', '{']) { label_studio(&text) } else { csv(&text) }
+    let labels = if crate::photo::label_studio::looks_like_json(&text) { label_studio(&text) } else { csv(&text) }
         .map_err(|why| FishError::Labels { path: name.clone(), why })?;
     if labels.is_empty() {
         return Err(FishError::Labels { path: name, why: "no labelled fish in it".into() });
@@ -97,6 +101,7 @@ fn csv(text: &str) -> Result<Vec<FishLabel>, String> {
             tail_px: pair("tail_x", "tail_y")?.ok_or_else(missing)?,
             dot_px: pair("dot_x", "dot_y")?,
             species: cell("species").map(str::to_string),
+            frame: None,
         });
     }
     Ok(out)
@@ -107,75 +112,49 @@ fn part(label: &str) -> Option<&'static str> {
     match label.to_ascii_lowercase().as_str() {
         "head" | "snout" | "nose" => Some("head"),
         "tail" | "fork" | "caudal fork" | "tail fork" => Some("tail"),
-        "dot" | "laser" | "laser dot" => Some("dot"),
+        "dot" | "laser" | "laser dot" | "green laser" | "red laser" => Some("dot"),
         _ => None,
     }
 }
 
-/// Label Studio's JSON export: a list of tasks, each with `data.image` and `annotations`
-/// (or the older `completions`) whose `result` holds `keypointlabels` (x, y in percent of
-/// `original_width` x `original_height`) and optionally `choices` (the species). Several
-/// fish in one photo pair their heads and tails in order.
+/// Label Studio's JSON export (`photo::label_studio`): each task's current annotation, its
+/// `keypointlabels` for the parts and a `choices` value for the species. Several fish in one
+/// photo pair their heads and tails in order.
 fn label_studio(text: &str) -> Result<Vec<FishLabel>, String> {
-    let v: Value = serde_json::from_str(text).map_err(|e| format!("not Label Studio JSON: {e}"))?;
-    let tasks = match &v {
-        Value::Array(a) => a.clone(),
-        Value::Object(_) => vec![v.clone()],
-        _ => return Err("expected a list of Label Studio tasks".into()),
-    };
+    let tasks = crate::photo::label_studio::parse(text).map_err(|e| e.to_string())?;
     let mut out = Vec::new();
-    for (t, task) in tasks.iter().enumerate() {
-        let photo = task["data"]
-            .as_object()
-            .and_then(|d| d.get("image").or_else(|| d.values().find(|v| v.is_string())))
-            .and_then(Value::as_str)
-            .ok_or(format!("task {t}: no `data.image`"))?;
-        let annotations = task["annotations"].as_array().or(task["completions"].as_array());
-        // The latest annotation that is not cancelled.
-        let Some(result) = annotations
-            .and_then(|a| a.iter().rev().find(|a| a["was_cancelled"] != Value::Bool(true)))
-            .and_then(|a| a["result"].as_array())
-        else {
-            continue;
-        };
-        let (mut heads, mut tails, mut dots, mut species) = (vec![], vec![], vec![], None);
-        for r in result {
-            let value = &r["value"];
-            if let Some(choice) = value["choices"].as_array().and_then(|c| c.first()).and_then(Value::as_str) {
-                species = Some(choice.to_string());
-                continue;
-            }
-            let Some(which) =
-                value["keypointlabels"].as_array().and_then(|l| l.first()).and_then(Value::as_str).and_then(part)
-            else {
-                continue;
-            };
-            let (w, h) = (r["original_width"].as_f64(), r["original_height"].as_f64());
-            let (x, y) = (value["x"].as_f64(), value["y"].as_f64());
-            let (Some(w), Some(h), Some(x), Some(y)) = (w, h, x, y) else {
-                return Err(format!("task {t}: a keypoint without x, y, original_width or original_height"));
-            };
-            let px = Vec2::new(x / 100.0 * w - 0.5, y / 100.0 * h - 0.5);
-            match which {
-                "head" => heads.push(px),
-                "tail" => tails.push(px),
-                _ => dots.push(px),
+    for task in &tasks {
+        let Some(annotation) = task.current() else { continue };
+        let photo =
+            task.image.as_ref().ok_or_else(|| format!("{}: no `data.image` naming the photo", task.describe()))?;
+        let (mut heads, mut tails, mut dots) = (vec![], vec![], vec![]);
+        for k in &annotation.keypoints {
+            match k.labels.first().and_then(|l| part(l)) {
+                Some("head") => heads.push(k.pixel()),
+                Some("tail") => tails.push(k.pixel()),
+                Some(_) => dots.push(k.pixel()),
+                None => {}
             }
         }
         if heads.len() != tails.len() {
             return Err(format!(
-                "task {t} ({photo}): {} head and {} tail keypoints; every fish needs both",
+                "{}: {} head and {} tail keypoints; every fish needs both",
+                task.describe(),
                 heads.len(),
                 tails.len()
             ));
         }
+        let species = annotation.choices.first().cloned();
+        // One annotation is of one image: its keypoints share their frame.
+        let frame = annotation.keypoints.first().map(|k| k.frame);
         for (head_px, tail_px) in heads.into_iter().zip(tails) {
             out.push(FishLabel {
-                photo: photo.to_string(),
+                photo: photo.clone(),
                 head_px,
                 tail_px,
                 dot_px: dots.first().copied(),
                 species: species.clone(),
+                frame,
             });
         }
     }
@@ -209,6 +188,7 @@ mod tests {
             tail_px: Vec2::zeros(),
             dot_px: None,
             species: None,
+            frame: None,
         };
         assert!(l.names_photo(Path::new("dive/P7010042.JPG")));
         assert!(!l.names_photo(Path::new("dive/7010042.JPG")));

@@ -130,6 +130,9 @@ pub enum EndsMissing {
     Mask { message: String },
     /// The mask is not the photo's size.
     MaskSize { mask: PathBuf },
+    /// The labels were clicked on an image that cannot be placed on the photo (neither is a
+    /// known crop of the other); the frame's message.
+    LabelFrame { message: String },
 }
 
 impl fmt::Display for EndsMissing {
@@ -139,6 +142,7 @@ impl fmt::Display for EndsMissing {
             EndsMissing::NoMask { dir } => write!(f, "no mask for it in {}", dir.display()),
             EndsMissing::Mask { message } => f.write_str(message),
             EndsMissing::MaskSize { mask } => write!(f, "{}: mask size differs from the photo's", mask.display()),
+            EndsMissing::LabelFrame { message } => f.write_str(message),
         }
     }
 }

@@ -4,6 +4,7 @@
 pub mod fit;
 #[cfg(feature = "vision")]
 pub mod gates;
+pub mod lab_equivalent;
 pub mod outcome;
 #[cfg(feature = "vision")]
 pub mod pipeline;

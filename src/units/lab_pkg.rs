@@ -32,6 +32,8 @@ pub enum PkgError {
     Shape { name: String, shape: Vec<usize>, expected: &'static str },
     #[error("`metadata.json` has no readable `calibrated_date`")]
     Date,
+    #[error("`metadata.json`'s calibrated_date: {0}")]
+    PlaceDate(#[from] utc_time::PlaceTimeError),
 }
 
 /// A float array read from `.npy`, in C (row-major) order whatever the file's order.
@@ -184,12 +186,39 @@ impl Pkg {
         read_npy(name, self.files.get(name).ok_or(PkgError::Missing(name, kind))?)
     }
 
-    /// `calibrated_date` as seconds since 1970 UTC.
+    /// `calibrated_date` as seconds since 1970 UTC; a date without a zone is refused.
     pub fn calibrated_utc_s(&self, kind: &'static str) -> Result<i64, PkgError> {
+        Ok(self.metadata(kind, None)?.calibrated_utc_s)
+    }
+
+    /// `metadata.json`: when (a date without a zone placed in `zone`, refused without one)
+    /// and, where the lab's 2023 lens tool wrote it, the camera's serial number.
+    pub fn metadata(&self, kind: &'static str, zone: Option<&jiff::tz::TimeZone>) -> Result<PkgMetadata, PkgError> {
         let text = self.files.get("metadata.json").ok_or(PkgError::Missing("metadata.json", kind))?;
         let json: serde_json::Value = serde_json::from_slice(text).map_err(|_| PkgError::Date)?;
-        json.get("calibrated_date").and_then(|d| d.as_str()).and_then(utc_time::parse_iso).ok_or(PkgError::Date)
+        let date = json.get("calibrated_date").and_then(|d| d.as_str()).ok_or(PkgError::Date)?;
+        let serial_number = json
+            .get("serial_number")
+            .and_then(|s| s.as_str())
+            .map(str::trim)
+            .filter(|s| !s.is_empty())
+            .map(str::to_string);
+        Ok(PkgMetadata {
+            calibrated_utc_s: utc_time::parse_iso_in(date, zone)?,
+            calibrated_date: date.to_string(),
+            serial_number,
+        })
     }
+}
+
+/// What a `.pkg`'s `metadata.json` says besides the arrays.
+#[derive(Clone, Debug, PartialEq)]
+pub struct PkgMetadata {
+    pub calibrated_utc_s: i64,
+    /// As written (`2025-02-10 18:32:05.123456+00:00`, or the 2023 tools' local time).
+    pub calibrated_date: String,
+    /// The camera's serial number (the 2023 lens metadata has it; later files do not).
+    pub serial_number: Option<String>,
 }
 
 /// A lens calibration: camera matrix (row-major 3x3) and distortion coefficients.
@@ -223,6 +252,14 @@ pub const LASER_AXIS: &str = "laser_axis.npy";
 
 impl LensPkg {
     pub fn read(bytes: &[u8]) -> Result<Self, PkgError> {
+        Ok(Self::read_with_metadata(bytes, None)?.0)
+    }
+
+    /// The lens and its metadata, a date without a zone placed in `zone`.
+    pub fn read_with_metadata(
+        bytes: &[u8],
+        zone: Option<&jiff::tz::TimeZone>,
+    ) -> Result<(Self, PkgMetadata), PkgError> {
         let pkg = Pkg::read(bytes)?;
         let k = pkg.array(LENS_MATRIX, "lens")?;
         let camera_matrix = <[f64; 9]>::try_from(k.data.as_slice())
@@ -230,7 +267,8 @@ impl LensPkg {
             .filter(|_| k.shape == [3, 3])
             .ok_or(PkgError::Shape { name: LENS_MATRIX.into(), shape: k.shape.clone(), expected: "3x3" })?;
         let d = pkg.array(LENS_DISTORTION, "lens")?;
-        Ok(LensPkg { camera_matrix, distortion: d.data, calibrated_utc_s: pkg.calibrated_utc_s("lens")? })
+        let meta = pkg.metadata("lens", zone)?;
+        Ok((LensPkg { camera_matrix, distortion: d.data, calibrated_utc_s: meta.calibrated_utc_s }, meta))
     }
 
     /// The archive, with the distortion as OpenCV returns it: shape (1, N).
@@ -247,12 +285,22 @@ impl LensPkg {
 
 impl LaserPkg {
     pub fn read(bytes: &[u8]) -> Result<Self, PkgError> {
+        Ok(Self::read_with_metadata(bytes, None)?.0)
+    }
+
+    /// The laser and its metadata, a date without a zone placed in `zone`.
+    pub fn read_with_metadata(
+        bytes: &[u8],
+        zone: Option<&jiff::tz::TimeZone>,
+    ) -> Result<(Self, PkgMetadata), PkgError> {
         let pkg = Pkg::read(bytes)?;
-        Ok(LaserPkg {
+        let meta = pkg.metadata("laser", zone)?;
+        let laser = LaserPkg {
             position_m: vector3(pkg.array(LASER_POSITION, "laser")?, LASER_POSITION)?,
             axis: vector3(pkg.array(LASER_AXIS, "laser")?, LASER_AXIS)?,
-            calibrated_utc_s: pkg.calibrated_utc_s("laser")?,
-        })
+            calibrated_utc_s: meta.calibrated_utc_s,
+        };
+        Ok((laser, meta))
     }
 
     pub fn write(&self) -> std::io::Result<Vec<u8>> {
@@ -319,5 +367,39 @@ mod tests {
         assert_eq!(LaserPkg::read(&laser.write().unwrap()).unwrap(), laser);
         assert_eq!(LaserPkg::read(&bytes).unwrap_err(), PkgError::Missing(LASER_POSITION, "laser"));
         assert!(matches!(LensPkg::read(b"not gzip"), Err(PkgError::NotAnArchive(_))));
+    }
+
+    /// The 2023 lens tool's metadata: name, maker, model, serial and a local time without a
+    /// zone (`str(datetime.now())`).
+    fn pkg_2023(date: &str) -> Vec<u8> {
+        let meta = format!(
+            r#"{{"name": "tg6", "manufacturer": "Olympus", "model": "TG-6", "serial_number": " BHV204411 ", "calibrated_date": "{date}"}}"#
+        );
+        let mut tar = tar::Builder::new(GzEncoder::new(Vec::new(), flate2::Compression::default()));
+        for (name, bytes) in [
+            ("metadata.json", meta.into_bytes()),
+            (LENS_MATRIX, write_npy(&[3, 3], &[2900.0, 0.0, 2020.0, 0.0, 2900.0, 1508.0, 0.0, 0.0, 1.0])),
+            (LENS_DISTORTION, write_npy(&[1, 5], &[-0.1, 0.05, 0.0, 0.0, 0.0])),
+        ] {
+            let mut h = tar::Header::new_gnu();
+            h.set_size(bytes.len() as u64);
+            h.set_mode(0o644);
+            h.set_entry_type(tar::EntryType::Regular);
+            tar.append_data(&mut h, name, bytes.as_slice()).unwrap();
+        }
+        tar.into_inner().unwrap().finish().unwrap()
+    }
+
+    #[test]
+    fn the_2023_metadata_needs_a_zone_and_gives_its_serial() {
+        let bytes = pkg_2023("2023-07-14 10:31:07.517211");
+        let e = LensPkg::read(&bytes).unwrap_err();
+        assert!(e.to_string().contains("has no time zone") && e.to_string().contains("--timezone"), "{e}");
+        let la = utc_time::parse_zone("America/Los_Angeles").unwrap();
+        let (lens, meta) = LensPkg::read_with_metadata(&bytes, Some(&la)).unwrap();
+        // 10:31:07 PDT is 17:31:07 UTC.
+        assert_eq!(utc_time::format_iso(lens.calibrated_utc_s), "2023-07-14T17:31:07Z");
+        assert_eq!(meta.serial_number.as_deref(), Some("BHV204411"));
+        assert_eq!(meta.calibrated_date, "2023-07-14 10:31:07.517211");
     }
 }

@@ -17,7 +17,7 @@ use crate::documents::{check_schema, NewerSchema};
 use crate::units::keys::{self, KeyError, TrustedKey};
 use crate::units::signed_file::{self, unit_id, UnitFileError};
 use crate::utc_time;
-use fslcal_core::unit_file::{self, FormatError, KeyId, SignedUnitFile};
+use fslcal_core::unit_file::{self, FormatError, KeyId, Provenance, SignedUnitFile};
 use std::path::{Path, PathBuf};
 
 #[derive(Debug, thiserror::Error)]
@@ -65,6 +65,8 @@ pub struct CurrentCalibration {
     pub file: PathBuf,
     pub made_utc_s: i64,
     pub signer: KeyId,
+    /// Fitted by fslcal, or imported from the lab's files.
+    pub provenance: Provenance,
     /// `Ok` when intact and signed by a trusted key; why not otherwise.
     pub status: Result<(), FormatError>,
 }
@@ -174,7 +176,13 @@ fn read_current(path: &Path, trusted: &[TrustedKey]) -> Option<CurrentCalibratio
         Ok(()) if !keys.contains(&f.signer) => Err(FormatError::UnknownSigner(f.key_id())),
         Ok(()) => Ok(()),
     };
-    Some(CurrentCalibration { file: path.to_path_buf(), made_utc_s: f.contents.made_utc_s, signer: f.key_id(), status })
+    Some(CurrentCalibration {
+        file: path.to_path_buf(),
+        made_utc_s: f.contents.made_utc_s,
+        signer: f.key_id(),
+        provenance: f.contents.provenance,
+        status,
+    })
 }
 
 fn read_validation(path: &Path) -> Option<ValidationRecord> {
