@@ -1,5 +1,6 @@
 //! `fslcal camera`: the intrinsics a diver calibrates once per unit, under water.
 
+use super::outputs::{self, Input, Output};
 use super::progress;
 use crate::atomic_file::write_atomically;
 use crate::camera::calibrate::{calibrate, CameraCalibration, CameraJob, CameraPhotoStatus};
@@ -50,6 +51,11 @@ fn parse_board(s: &str) -> Result<Checkerboard, String> {
 }
 
 pub fn run(args: CameraArgs) -> anyhow::Result<ExitCode> {
+    let inputs: Vec<Input> = args.photos.iter().map(|p| Input::new("photo", p)).collect();
+    let mut outs = Vec::new();
+    outs.extend(args.out.as_deref().map(|p| Output::file("--out", p)));
+    outs.extend(args.report.as_deref().map(|p| Output::report("--report", p)));
+    outputs::check(&inputs, &outs, false)?;
     for p in &args.photos {
         if !p.is_file() {
             bail!("{}: no such photo", p.display());
@@ -66,6 +72,7 @@ pub fn run(args: CameraArgs) -> anyhow::Result<ExitCode> {
         print!("{}", summary(&args, &cal));
     }
     if let Some(dir) = &args.report {
+        outputs::say_if_replacing(dir);
         let index = report::camera::write(dir, &CameraReport { board: &args.board, calibration: &cal })
             .with_context(|| format!("{}: cannot write the report", dir.display()))?;
         if !args.json {
@@ -78,6 +85,7 @@ pub fn run(args: CameraArgs) -> anyhow::Result<ExitCode> {
         let (_, camera_serial, focal_length_mm) = photos_exif(&args.photos);
         let extras = CameraFileExtras { avg_reprojection_error: Some(cal.rms_px), camera_serial, focal_length_mm };
         let yaml = opencv_yaml::to_yaml(&cal.camera, &extras);
+        outputs::say_if_replacing(out);
         write_atomically(out, yaml.as_bytes())
             .with_context(|| format!("{}: cannot write the camera file", out.display()))?;
         if !args.json {

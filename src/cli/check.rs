@@ -1,6 +1,7 @@
 //! `fslcal check`: has the laser moved since it was calibrated?
 
 use super::body_check::BodyCheckArgs;
+use super::outputs::{self, Input, Output};
 use super::progress;
 use crate::calibration;
 use crate::calibration::drift::{check, CheckOutcome, DriftCheck, FLAG_SIGMAS};
@@ -43,6 +44,10 @@ pub struct CheckArgs {
 }
 
 pub fn run(args: CheckArgs) -> anyhow::Result<ExitCode> {
+    let mut inputs = vec![Input::new("--cal", &args.cal)];
+    inputs.extend(args.photos.iter().map(|p| Input::new("photo", p)));
+    let outs: Vec<Output> = args.report.as_deref().map(|p| Output::report("--report", p)).into_iter().collect();
+    outputs::check(&inputs, &outs, false)?;
     let cal = calibration::load(&args.cal)?;
     for p in &args.photos {
         if !p.is_file() {
@@ -60,6 +65,7 @@ pub fn run(args: CheckArgs) -> anyhow::Result<ExitCode> {
         print!("{}", summary(&r));
     }
     if let Some(dir) = &args.report {
+        outputs::say_if_replacing(dir);
         let index = report::check::write(dir, &CheckReport::of(&r, &cal))
             .with_context(|| format!("{}: cannot write the report", dir.display()))?;
         if !args.json {

@@ -1,6 +1,7 @@
 //! `fslcal export`: a unit file back into the FishSense lab's `.pkg` archives.
 
 use super::inspect;
+use super::outputs::{self, Input, Output};
 use crate::atomic_file::write_atomically;
 use crate::units::lab_pkg::{LaserPkg, LensPkg};
 use crate::units::signed_file::{self, UnitFileError};
@@ -52,11 +53,14 @@ pub fn run(args: ExportArgs) -> anyhow::Result<ExitCode> {
         calibrated_utc_s: c.made_utc_s,
     };
     let laser = LaserPkg { position_m: c.laser.origin_m, axis: c.laser.direction, calibrated_utc_s: c.made_utc_s };
+    let paths = ["lens", "laser"].map(|kind| args.out.join(format!("{unit}-{kind}.pkg")));
+    let outs = [Output::file("--out", &paths[0]), Output::file("--out", &paths[1])];
+    outputs::check(&[Input::new("FILE", &args.file)], &outs, false)?;
     std::fs::create_dir_all(&args.out).with_context(|| format!("{}: cannot create the folder", args.out.display()))?;
     let mut written = Vec::new();
-    for (kind, archive) in [("lens", lens.write()), ("laser", laser.write())] {
-        let path = args.out.join(format!("{unit}-{kind}.pkg"));
+    for (path, archive) in paths.iter().zip([lens.write(), laser.write()]) {
         let archive = archive.context("cannot build the archive")?;
+        outputs::say_if_replacing(path);
         write_atomically(&path, &archive).with_context(|| format!("{}: cannot write", path.display()))?;
         written.push(path.display().to_string());
     }

@@ -1,5 +1,6 @@
 //! `fslcal import`: a signed unit file from the FishSense lab's lens and laser `.pkg` files.
 
+use super::outputs::{self, Input, Output, OutputKind};
 use super::signing::SigningArgs;
 use crate::camera::opencv_yaml::{camera_from_opencv, OpencvCameraProblem};
 use crate::units::lab_pkg::{LaserPkg, LensPkg};
@@ -70,6 +71,10 @@ fn camera_of(lens: &LensPkg, size: (u32, u32), path: &Path) -> anyhow::Result<Ca
 }
 
 pub fn run(args: ImportArgs) -> anyhow::Result<ExitCode> {
+    let mut inputs = vec![Input::new("LENS.pkg", &args.lens), Input::new("LASER.pkg", &args.laser)];
+    inputs.extend(args.signing.key.as_deref().map(|k| Input::new("--key", k)));
+    let out = Output { option: "--out", path: &args.out, kind: OutputKind::Signed };
+    outputs::check(&inputs, &[out], args.signing.force)?;
     let (unit, key) = args.signing.unit_and_key(&args.out)?;
     let lens = LensPkg::read(&read(&args.lens)?).with_context(|| format!("{}", args.lens.display()))?;
     let laser_pkg = LaserPkg::read(&read(&args.laser)?).with_context(|| format!("{}", args.laser.display()))?;
@@ -101,6 +106,7 @@ pub fn run(args: ImportArgs) -> anyhow::Result<ExitCode> {
         provenance: Provenance::LabPkg,
         laser_colour: None,
     };
+    outputs::say_if_replacing(&args.out);
     let size = signed_file::sign_to_file(&contents, &key, &args.out)?;
     if args.json {
         println!(

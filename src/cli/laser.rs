@@ -1,6 +1,7 @@
 //! `fslcal laser`: the command a diver runs before a dive.
 
 use super::body_check::BodyCheckArgs;
+use super::outputs::{self, Input, Output};
 use super::pixels::{parse_pixel, read_dots_csv};
 use super::progress;
 use super::signing::PriorUnit;
@@ -119,7 +120,23 @@ fn hand_dots(args: &LaserArgs) -> anyhow::Result<HandDots> {
     Ok(dots)
 }
 
+/// Refuses, before any work, an output that is one of the run's inputs or another output.
+fn check_outputs(args: &LaserArgs) -> anyhow::Result<()> {
+    let mut inputs = vec![Input::new("--camera", &args.camera)];
+    inputs.extend(args.dots.as_deref().map(|p| Input::new("--dots", p)));
+    inputs.extend(args.signing.key.as_deref().map(|p| Input::new("--key", p)));
+    if let TargetArg::Slate(p) = &args.target {
+        inputs.push(Input::new("--target", p));
+    }
+    inputs.extend(args.photos.iter().map(|p| Input::new("photo", p)));
+    let mut outs = Vec::new();
+    outs.extend(args.out.as_deref().map(|p| Output::result("--out", p)));
+    outs.extend(args.report.as_deref().map(|p| Output::report("--report", p)));
+    Ok(outputs::check(&inputs, &outs, args.signing.force)?)
+}
+
 pub fn run(args: LaserArgs) -> anyhow::Result<ExitCode> {
+    check_outputs(&args)?;
     let (camera, prior, expected) = signing::read_camera(&args.camera, &args.signing)?;
     let signed_out = args.out.as_deref().filter(|o| signing::is_unit_file_path(o));
     if let Some(out) = signed_out {
@@ -150,6 +167,7 @@ pub fn run(args: LaserArgs) -> anyhow::Result<ExitCode> {
         (None, Some(out)) => {
             let mut text = documents::to_text(&document)?;
             text.push('\n');
+            outputs::say_if_replacing(out);
             write_atomically(out, text.as_bytes())
                 .with_context(|| format!("{}: cannot write the result", out.display()))?;
             if !args.json {
@@ -224,6 +242,7 @@ fn write_signed(
         signing_args.water_depth_m = depths.get(depths.len() / 2).map(|&d| d as f32);
     }
     let target = target_label(&job.target);
+    outputs::say_if_replacing(out);
     let size = signing::sign_unit_file(out, &signing_args, prior, unit_contents(&target, &job.camera, cal))?;
     if !args.json {
         println!("wrote {} (signed, {size} bytes)", out.display());
@@ -234,6 +253,7 @@ fn write_signed(
 fn write_report(args: &LaserArgs, job: &LaserJob, outcome: LaserOutcome) -> anyhow::Result<()> {
     let Some(dir) = &args.report else { return Ok(()) };
     let report = LaserReport { job, camera_file: &args.camera, outcome };
+    outputs::say_if_replacing(dir);
     let index =
         report::laser::write(dir, &report).with_context(|| format!("{}: cannot write the report", dir.display()))?;
     if !args.json {

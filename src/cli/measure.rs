@@ -1,6 +1,7 @@
 //! `fslcal measure`: fish lengths from end points, the laser dot and a unit's calibration,
 //! with their 1-sigma, and a dive's length distribution.
 
+use super::outputs::{self, Input, Output};
 use super::pixels::{pixel_arg, read_dots_csv};
 use super::progress;
 use crate::atomic_file::write_atomically;
@@ -94,7 +95,31 @@ pub struct MeasureArgs {
     photos: Vec<PathBuf>,
 }
 
+/// Refuses, before any work, an output that is one of the run's inputs or the other output.
+fn check_outputs(args: &MeasureArgs) -> anyhow::Result<()> {
+    let mut inputs = Vec::new();
+    for (what, path) in
+        [("--cal", &args.cal), ("--labels", &args.labels), ("--dots", &args.dots), ("--mask", &args.mask)]
+    {
+        inputs.extend(path.as_deref().map(|p| Input::new(what, p)));
+    }
+    // The masks a folder holds are inputs too (a file merely in the folder may be replaced).
+    let masks: Vec<PathBuf> = args
+        .masks
+        .as_deref()
+        .and_then(|d| std::fs::read_dir(d).ok())
+        .map(|entries| entries.filter_map(|e| e.ok().map(|e| e.path())).collect())
+        .unwrap_or_default();
+    inputs.extend(masks.iter().map(|p| Input::new("mask", p)));
+    inputs.extend(args.photos.iter().map(|p| Input::new("photo", p)));
+    let mut outs = Vec::new();
+    outs.extend(args.out.as_deref().map(|p| Output::file("--out", p)));
+    outs.extend(args.summary_out.as_deref().map(|p| Output::file("--summary-out", p)));
+    Ok(outputs::check(&inputs, &outs, false)?)
+}
+
 pub fn run(args: MeasureArgs) -> anyhow::Result<ExitCode> {
+    check_outputs(&args)?;
     if !(args.dot_sigma_px > 0.0 && args.dot_sigma_px.is_finite()) {
         bail!("--dot-sigma-px must be a positive number of pixels");
     }
@@ -506,10 +531,12 @@ fn batch(args: &MeasureArgs) -> anyhow::Result<ExitCode> {
     }
     let summary = Summary::of(&rows);
     if let Some(out) = &args.out {
+        outputs::say_if_replacing(out);
         write_atomically(out, rows_csv(&rows).as_bytes())
             .with_context(|| format!("{}: cannot write the lengths", out.display()))?;
     }
     if let Some(out) = &args.summary_out {
+        outputs::say_if_replacing(out);
         write_atomically(out, summary.csv().as_bytes())
             .with_context(|| format!("{}: cannot write the summary", out.display()))?;
     }

@@ -14,6 +14,7 @@ mod keygen;
 #[cfg(feature = "vision")]
 mod laser;
 mod measure;
+mod outputs;
 mod pixels;
 mod progress;
 mod signing;

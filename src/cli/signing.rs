@@ -35,6 +35,11 @@ pub struct SigningArgs {
     /// Water depth where the calibration photos were taken, metres.
     #[arg(long, value_name = "M")]
     pub water_depth_m: Option<f32>,
+
+    /// Replace a signed unit file already at --out; without it an existing .fslcal is never
+    /// overwritten.
+    #[arg(long)]
+    pub force: bool,
 }
 
 impl SigningArgs {

@@ -1,6 +1,7 @@
 //! `fslcal validate`: the slate-length check of a calibration.
 
 use super::body_check::BodyCheckArgs;
+use super::outputs::{self, Input, Output};
 use super::progress;
 use crate::calibration;
 use crate::calibration::validate::{validate, LengthRule, Validation, ValidationJob, ValidationOutcome};
@@ -64,6 +65,13 @@ pub fn run(args: ValidateArgs) -> anyhow::Result<ExitCode> {
     if !(args.tolerance > 0.0 && args.tolerance < 100.0) {
         bail!("--tolerance {}: expected a percentage between 0 and 100", args.tolerance);
     }
+    let mut inputs = vec![Input::new("--cal", &args.cal)];
+    if let TargetArg::Slate(p) = &args.target {
+        inputs.push(Input::new("--target", p));
+    }
+    inputs.extend(args.photos.iter().map(|p| Input::new("photo", p)));
+    let outs: Vec<Output> = args.report.as_deref().map(|p| Output::report("--report", p)).into_iter().collect();
+    outputs::check(&inputs, &outs, false)?;
     let cal = calibration::load(&args.cal)?;
     for p in &args.photos {
         if !p.is_file() {
@@ -91,6 +99,7 @@ pub fn run(args: ValidateArgs) -> anyhow::Result<ExitCode> {
     }
     if let Some(dir) = &args.report {
         let page = ValidationReport::of(&v, &args.cal, job.target.to_string());
+        outputs::say_if_replacing(dir);
         let index = report::validate::write(dir, &page)
             .with_context(|| format!("{}: cannot write the report", dir.display()))?;
         if !args.json {
