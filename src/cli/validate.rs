@@ -5,11 +5,14 @@ use super::outputs::{self, Input, Output};
 use super::progress;
 use crate::calibration;
 use crate::calibration::validate::{validate, LengthRule, Validation, ValidationJob, ValidationOutcome};
-use crate::documents::{self, validation::ValidationDocument};
+use crate::documents::validation::{CalibrationUsed, ValidationDocument};
+use crate::documents::{self};
 use crate::dot::candidates::DotDetectorParams;
 use crate::laser::target::TargetArg;
 use crate::photo::identity::ExpectedCamera;
 use crate::report::{self, validate::ValidationReport};
+use crate::units::registry::sha256_hex;
+use crate::utc_time;
 use anyhow::{bail, Context};
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
@@ -72,7 +75,10 @@ pub fn run(args: ValidateArgs) -> anyhow::Result<ExitCode> {
     inputs.extend(args.photos.iter().map(|p| Input::new("photo", p)));
     let outs: Vec<Output> = args.report.as_deref().map(|p| Output::report("--report", p)).into_iter().collect();
     outputs::check(&inputs, &outs, false)?;
-    let cal = calibration::load(&args.cal)?;
+    let bytes = std::fs::read(&args.cal)
+        .map_err(|cause| calibration::CalibrationError::Io { path: args.cal.display().to_string(), cause })?;
+    let cal = calibration::from_bytes(&bytes, &args.cal)?;
+    let validated_utc_s = utc_time::now_s();
     for p in &args.photos {
         if !p.is_file() {
             bail!("{}: no such photo", p.display());
@@ -93,7 +99,13 @@ pub fn run(args: ValidateArgs) -> anyhow::Result<ExitCode> {
     bar.finish_and_clear();
     let v = result.context("validation")?;
     if args.json {
-        println!("{}", documents::to_text(&ValidationDocument::new(&v, job.cal.unit.clone()))?);
+        let used = CalibrationUsed {
+            unit: job.cal.unit.clone(),
+            file: args.cal.display().to_string(),
+            sha256: sha256_hex(&bytes),
+            validated_utc_s,
+        };
+        println!("{}", documents::to_text(&ValidationDocument::new(&v, used))?);
     } else {
         print!("{}", summary(&v));
     }
