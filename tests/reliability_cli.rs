@@ -153,3 +153,197 @@ fn an_existing_signed_file_is_replaced_only_with_force_and_said() {
     assert!(stderr(&o).contains(&format!("note: replacing {}", out.display())), "{}", stderr(&o));
     assert_ne!(std::fs::read(&out).unwrap(), first);
 }
+
+fn json(o: &Output) -> serde_json::Value {
+    assert!(o.status.success(), "{}", stderr(o));
+    serde_json::from_slice(&o.stdout).expect("stdout is one JSON object")
+}
+
+/// A registry folder trusting a fresh key, and the key.
+fn registry(d: &Path) -> (PathBuf, PathBuf) {
+    let key = keygen(d, "lead");
+    let reg = d.join("units");
+    let o = fslcal(&["units", "--registry", s(&reg), "trust", s(&d.join("lead.pub"))]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    (reg, key)
+}
+
+fn import(d: &Path, key: &Path, tag: &str, tilt_deg: f64, date_s: i64) -> PathBuf {
+    let (lens, laser) = lab_pkgs(d, tag, tilt_deg, date_s);
+    let out = d.join(format!("{tag}.fslcal"));
+    let o = fslcal(&["import", s(&lens), s(&laser), "--unit", "FSL-07", "--key", s(key), "--out", s(&out)]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    out
+}
+
+fn report(d: &Path, name: &str, cal: Option<&Path>, pass: bool, validated: &str) -> PathBuf {
+    let mut v = serde_json::json!({"schema_version": 1, "unit": "FSL-07", "photos": [], "pass": pass, "validated_utc": validated});
+    if let Some(cal) = cal {
+        v["calibration_sha256"] = fslcal::units::registry::sha256_hex(&std::fs::read(cal).unwrap()).into();
+    }
+    let p = d.join(name);
+    std::fs::write(&p, serde_json::to_vec(&v).unwrap()).unwrap();
+    p
+}
+
+#[test]
+fn a_validation_is_filed_and_shown_only_beside_the_calibration_it_validated() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let (reg, key) = registry(d);
+    let add = |f: &Path, extra: &[&str]| {
+        let mut a = vec!["units", "--registry", s(&reg), "add", s(f)];
+        a.extend_from_slice(extra);
+        fslcal(&a)
+    };
+    let june = import(d, &key, "june", 0.0, 1_780_306_200);
+    // FSL-07 has no calibration yet: a pass for it would be a pass of nothing.
+    let early = report(d, "early.json", Some(&june), true, "2026-06-02T10:00:00Z");
+    refused(&add(&early, &["--unit", "FSL-07"]), "is not filed under FSL-07; file that calibration first");
+    assert!(!reg.join("FSL-07").exists());
+    assert!(add(&june, &[]).status.success());
+    let v = json(&add(&early, &["--json"]));
+    assert_eq!((v["pass"].as_bool(), v["new"].as_bool()), (Some(true), Some(true)));
+    refused(
+        &add(&report(d, "bare.json", None, true, "2026-06-02T11:00:00Z"), &[]),
+        "does not name the calibration it validated",
+    );
+    refused(&add(&early, &["--unit", "FSL-03"]), "the report is of FSL-07's calibration, not FSL-03's");
+    let list = |reg: &Path| json(&fslcal(&["units", "--registry", s(reg), "list", "--json"]))["units"][0].clone();
+    let u = list(&reg);
+    assert_eq!(u["last_validation"]["pass"], true);
+    assert_eq!(u["last_validation"]["validated_utc"], "2026-06-02T10:00:00Z");
+    // A calibration made after it: the June pass says nothing about it.
+    let july = import(d, &key, "july", 0.3, 1_780_306_200 + 30 * 86_400);
+    assert!(add(&july, &[]).status.success());
+    let u = list(&reg);
+    assert_eq!(u["current"]["made_utc"], "2026-07-01T09:30:00Z");
+    assert!(u["last_validation"].is_null(), "{u}");
+    let text = String::from_utf8_lossy(&fslcal(&["units", "--registry", s(&reg), "list"]).stdout).into_owned();
+    assert!(!text.contains("pass"), "{text}");
+}
+
+#[test]
+fn reports_filed_in_one_second_are_ordered_by_when_they_ran() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let (reg, key) = registry(d);
+    let cal = import(d, &key, "cal", 0.0, 1_780_306_200);
+    assert!(fslcal(&["units", "--registry", s(&reg), "add", s(&cal)]).status.success());
+    // The later validation passes; it is filed first, the older FAIL after it.
+    let pass = report(d, "pass.json", Some(&cal), true, "2026-06-02T10:00:01Z");
+    let fail = report(d, "fail.json", Some(&cal), false, "2026-06-02T10:00:00Z");
+    for r in [&pass, &fail] {
+        assert!(fslcal(&["units", "--registry", s(&reg), "add", s(r)]).status.success());
+    }
+    let v = json(&fslcal(&["units", "--registry", s(&reg), "list", "--json"]));
+    assert_eq!(v["units"][0]["last_validation"]["pass"], true, "{v}");
+    // Filing the same report again is recognised, not filed twice.
+    let again = json(&fslcal(&["units", "--registry", s(&reg), "add", s(&pass), "--json"]));
+    assert_eq!(again["new"], false);
+    let reports = std::fs::read_dir(reg.join("FSL-07"))
+        .unwrap()
+        .filter(|e| e.as_ref().unwrap().file_name().to_string_lossy().starts_with("validation-"))
+        .count();
+    assert_eq!(reports, 2);
+}
+
+#[test]
+fn a_corrected_reimport_is_filed_beside_the_old_one() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let (reg, key) = registry(d);
+    // The lab's same files, the laser axis corrected: same date, same signer.
+    let first = import(d, &key, "first", 0.0, 1_780_306_200);
+    let corrected = import(d, &key, "corrected", 0.05, 1_780_306_200);
+    let mut filed = Vec::new();
+    for f in [&first, &corrected] {
+        let v = json(&fslcal(&["units", "--registry", s(&reg), "add", s(f), "--json"]));
+        assert_eq!(v["new"], true, "{v}");
+        filed.push(v["calibration"].as_str().unwrap().to_string());
+    }
+    assert_ne!(filed[0], filed[1]);
+    let u = json(&fslcal(&["units", "--registry", s(&reg), "list", "--json"]))["units"][0].clone();
+    assert_eq!(u["calibrations"], 2);
+    assert_eq!(u["current"]["file"].as_str(), Some(filed[1].as_str()), "the one filed last is current");
+    for (f, there) in [(&first, &filed[0]), (&corrected, &filed[1])] {
+        assert_eq!(std::fs::read(f).unwrap(), std::fs::read(there).unwrap());
+    }
+}
+
+#[test]
+fn units_add_on_a_fresh_folder_says_what_to_do() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let key = keygen(d, "lead");
+    let cal = import(d, &key, "cal", 0.0, 1_780_306_200);
+    let reg = d.join("units");
+    let err = refused(&fslcal(&["units", "--registry", s(&reg), "add", s(&cal)]), "units/trusted: no such folder");
+    assert!(err.contains("`fslcal units trust KEY.pub`"), "{err}");
+    let v = json(&fslcal(&["units", "--registry", s(&reg), "trust", s(&d.join("lead.pub")), "--json"]));
+    assert_eq!(v["new"], true);
+    let again = json(&fslcal(&["units", "--registry", s(&reg), "trust", s(&d.join("lead.pub")), "--json"]));
+    assert_eq!(again["new"], false);
+    assert!(fslcal(&["units", "--registry", s(&reg), "add", s(&cal)]).status.success());
+}
+
+#[test]
+fn an_edited_key_id_in_a_pub_is_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let key = keygen(d, "lead");
+    let cal = import(d, &key, "cal", 0.0, 1_780_306_200);
+    let public = std::fs::read_to_string(d.join("lead.pub")).unwrap();
+    let words: Vec<&str> = public.split_whitespace().collect();
+    let edited = d.join("edited.pub");
+    std::fs::write(&edited, format!("{} {} 0123456789abcdef coordinator\n", words[0], words[1])).unwrap();
+    let err = refused(
+        &fslcal(&["verify", s(&cal), "--trust", s(&edited)]),
+        "edited.pub: the key id written in it (0123456789abcdef) is not its key's",
+    );
+    assert!(err.contains(words[2]), "{err}");
+    assert!(fslcal(&["verify", s(&cal), "--trust", s(&d.join("lead.pub"))]).status.success());
+}
+
+#[test]
+fn a_secret_key_readable_by_others_is_warned_about() {
+    use std::os::unix::fs::PermissionsExt;
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let key = keygen(d, "lead");
+    let (lens, laser) = lab_pkgs(d, "a", 0.0, 1_780_306_200);
+    let o = fslcal(&import_args(&lens, &laser, &key, &d.join("a.fslcal")));
+    assert!(o.status.success() && !stderr(&o).contains("warning"), "{}", stderr(&o));
+    std::fs::set_permissions(&key, std::fs::Permissions::from_mode(0o644)).unwrap();
+    let o = fslcal(&import_args(&lens, &laser, &key, &d.join("b.fslcal")));
+    assert!(o.status.success(), "{}", stderr(&o));
+    let err = stderr(&o);
+    assert!(err.contains("the secret key is readable by others (mode 0644)") && err.contains("chmod 600"), "{err}");
+}
+
+#[test]
+fn keygen_creates_a_missing_folder_owner_only() {
+    use std::os::unix::fs::PermissionsExt;
+    let dir = tempfile::tempdir().unwrap();
+    let home = dir.path().join(".fslcal");
+    let o = fslcal(&["keygen", "--out", s(&home.join("lead"))]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert_eq!(std::fs::metadata(&home).unwrap().permissions().mode() & 0o777, 0o700);
+    assert!(home.join("lead.pub").is_file());
+}
+
+#[test]
+fn inspect_of_a_tampered_file_shows_it_and_exits_1() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let key = keygen(d, "lead");
+    let cal = import(d, &key, "cal", 0.0, 1_780_306_200);
+    let mut bytes = std::fs::read(&cal).unwrap();
+    bytes[60] ^= 0x04;
+    std::fs::write(&cal, &bytes).unwrap();
+    let o = fslcal(&["inspect", s(&cal)]);
+    assert_eq!(o.status.code(), Some(1));
+    let out = String::from_utf8_lossy(&o.stdout);
+    assert!(out.contains("unit FSL-07") && out.contains("signature INVALID"), "{out}");
+    assert!(stderr(&o).contains("cal.fslcal: tampered"), "{}", stderr(&o));
+}

@@ -12,7 +12,8 @@ use std::process::ExitCode;
 /// Show what a signed unit file (.fslcal) holds and whether its signature matches.
 ///
 /// Whether the signer is one you trust is `fslcal verify`'s question; this only says whether
-/// the file is intact as its signer made it.
+/// the file is intact as its signer made it. A file whose signature does not match is still
+/// shown (to see what was changed), and the exit status is 1.
 #[derive(clap::Args, Debug)]
 pub struct InspectArgs {
     /// The unit file.
@@ -143,5 +144,7 @@ pub fn run(args: InspectArgs) -> anyhow::Result<ExitCode> {
     } else {
         print!("{}", summary(&args.file, bytes.len(), &file));
     }
+    // Shown, but not passed: a script that inspects before use must not take it as sound.
+    file.check_signature().map_err(UnitFileError::at(&args.file))?;
     Ok(ExitCode::SUCCESS)
 }
