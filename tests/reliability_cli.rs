@@ -347,3 +347,125 @@ fn inspect_of_a_tampered_file_shows_it_and_exits_1() {
     assert!(out.contains("unit FSL-07") && out.contains("signature INVALID"), "{out}");
     assert!(stderr(&o).contains("cal.fslcal: tampered"), "{}", stderr(&o));
 }
+
+/// A small camera, a calibration of it (JSON), and photos of nothing: grey JPEGs of its
+/// size, plus one file that is not a photo at all.
+struct Blank {
+    _dir: tempfile::TempDir,
+    camera_file: PathBuf,
+    cal: PathBuf,
+    photos: Vec<PathBuf>,
+}
+
+fn blank_photos() -> Blank {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let camera = fslcal_core::CameraModel {
+        width_px: 800,
+        height_px: 600,
+        fx_px: 580.0,
+        fy_px: 580.0,
+        cx_px: 400.0,
+        cy_px: 300.0,
+        distortion: fslcal_core::Distortion::from_opencv([0.0; 5]),
+    };
+    let camera_file = d.join("camera.yml");
+    std::fs::write(&camera_file, calib_targets::camera_yaml(&camera)).unwrap();
+    let cal = d.join("cal.json");
+    let doc = serde_json::json!({
+        "camera": fslcal::calibration::camera_json(&camera),
+        "laser": {"origin_m": [-0.04, -0.105, 0.0], "direction": [0.0105, 0.022, 0.9997],
+                  "covariance": [[1e-8, 0.0, 0.0, 0.0], [0.0, 1e-8, 0.0, 0.0], [0.0, 0.0, 1e-9, 0.0], [0.0, 0.0, 0.0, 1e-9]]},
+    });
+    std::fs::write(&cal, serde_json::to_vec(&doc).unwrap()).unwrap();
+    let mut photos = Vec::new();
+    for (i, level) in [90u8, 140, 200].into_iter().enumerate() {
+        let p = d.join(format!("grey_{i}.jpg"));
+        image::RgbImage::from_pixel(800, 600, image::Rgb([level, level, level])).save(&p).unwrap();
+        photos.push(p);
+    }
+    let junk = d.join("junk.jpg");
+    std::fs::write(&junk, b"not a photo at all").unwrap();
+    photos.push(junk);
+    Blank { _dir: dir, camera_file, cal, photos }
+}
+
+/// Every photo of `b` has its line in `photos` (JSON), each with a reason.
+fn every_photo_has_a_reason(v: &serde_json::Value, b: &Blank) {
+    let photos = v["photos"].as_array().unwrap_or_else(|| panic!("no photos in {v}"));
+    assert_eq!(photos.len(), b.photos.len(), "{v}");
+    for (p, want) in photos.iter().zip(&b.photos) {
+        assert_eq!(p["file"].as_str(), Some(s(want)));
+        assert!(p["reason"].as_str().is_some_and(|r| !r.is_empty()), "{p}");
+    }
+    assert!(
+        photos[3]["reason"].as_str().unwrap().contains("unreadable")
+            || photos[3]["reason"].as_str().unwrap().contains("not a readable image"),
+        "{}",
+        photos[3]
+    );
+}
+
+/// The text run lists every photo by name with a reason, then the verdict, and the report
+/// has every photo.
+fn text_and_report_say_why(o: &Output, report: &Path, b: &Blank, verdict: &str) {
+    assert_eq!(o.status.code(), Some(1));
+    let text = format!("{}{}", String::from_utf8_lossy(&o.stdout), stderr(o));
+    for p in &b.photos {
+        let name = p.file_name().unwrap().to_str().unwrap();
+        let line = text.lines().find(|l| l.contains(name)).unwrap_or_else(|| panic!("{name} not listed: {text}"));
+        assert!(line.contains("skipped") || line.contains("unreadable") || line.contains("no "), "{line}");
+    }
+    assert!(text.contains(verdict), "{text}");
+    let html = std::fs::read_to_string(report.join("index.html")).expect("the report is written");
+    for p in &b.photos {
+        assert!(html.contains(p.file_name().unwrap().to_str().unwrap()), "report lacks {}", p.display());
+    }
+}
+
+#[test]
+fn check_with_no_usable_photo_says_why_per_photo_in_text_json_and_report() {
+    let b = blank_photos();
+    let report = b._dir.path().join("check-report");
+    let mut args = vec!["check", "--cal", s(&b.cal), "--report", s(&report)];
+    args.extend(b.photos.iter().map(|p| s(p)));
+    let o = fslcal(&args);
+    text_and_report_say_why(&o, &report, &b, "verdict: NOT JUDGED");
+    assert!(std::fs::read_to_string(report.join("index.html")).unwrap().contains("NOT JUDGED"));
+    args.push("--json");
+    let o = fslcal(&args);
+    assert_eq!(o.status.code(), Some(1));
+    let v: serde_json::Value = serde_json::from_slice(&o.stdout).expect("one JSON object even when nothing is judged");
+    assert!(v["error"].as_str().unwrap().contains("no photo has a laser dot"), "{v}");
+    every_photo_has_a_reason(&v, &b);
+}
+
+#[test]
+fn validate_with_nothing_measured_says_why_per_photo_in_text_json_and_report() {
+    let b = blank_photos();
+    let report = b._dir.path().join("validate-report");
+    let mut args = vec!["validate", "--cal", s(&b.cal), "--target", "checkerboard:9x6@25mm", "--report", s(&report)];
+    args.extend(b.photos.iter().map(|p| s(p)));
+    let o = fslcal(&args);
+    text_and_report_say_why(&o, &report, &b, "verdict: NOT JUDGED");
+    assert!(std::fs::read_to_string(report.join("index.html")).unwrap().contains("NOT JUDGED"));
+    args.push("--json");
+    let o = fslcal(&args);
+    let v: serde_json::Value =
+        serde_json::from_slice(&o.stdout).expect("one JSON object even when nothing is measured");
+    assert!(v["error"].as_str().unwrap().contains("no photo could be measured"), "{v}");
+    every_photo_has_a_reason(&v, &b);
+}
+
+#[test]
+fn laser_json_that_cannot_fit_lists_every_photo_with_its_reason() {
+    let b = blank_photos();
+    let mut args = vec!["laser", "--camera", s(&b.camera_file), "--target", "checkerboard:9x6@25mm", "--json"];
+    args.extend(b.photos.iter().map(|p| s(p)));
+    let o = fslcal(&args);
+    assert_eq!(o.status.code(), Some(1));
+    let v: serde_json::Value = serde_json::from_slice(&o.stdout).expect("one JSON object when the fit is refused");
+    assert!(v["error"].as_str().unwrap().starts_with("cannot fit the laser: "), "{v}");
+    every_photo_has_a_reason(&v, &b);
+    assert!(v["photos"][0]["reason"].as_str().unwrap().contains("no 9x6 checkerboard found"), "{v}");
+}

@@ -4,8 +4,8 @@ use super::body_check::BodyCheckArgs;
 use super::outputs::{self, Input, Output};
 use super::progress;
 use crate::calibration;
-use crate::calibration::drift::{check, CheckOutcome, DriftCheck, FLAG_SIGMAS};
-use crate::documents::{self, check::CheckDocument};
+use crate::calibration::drift::{check, CheckError, CheckOutcome, DriftCheck, FLAG_SIGMAS};
+use crate::documents::{self, check::CheckDocument, refused::RefusedDocument};
 use crate::photo::identity::ExpectedCamera;
 use crate::report::{self, check::CheckReport};
 use anyhow::{bail, Context};
@@ -58,11 +58,20 @@ pub fn run(args: CheckArgs) -> anyhow::Result<ExitCode> {
     let bar = progress::bar(args.photos.len(), "photos", args.json);
     let result = check(&cal, &args.photos, &|| bar.inc(1));
     bar.finish_and_clear();
-    let r = result.context("drift check")?;
-    if args.json {
-        println!("{}", documents::to_text(&CheckDocument::from(&r))?);
-    } else {
-        print!("{}", summary(&r));
+    // No judgeable dot is still a run that read photos: each says why, then the error.
+    let (r, refused) = match result {
+        Ok(r) => (r, None),
+        Err(e @ CheckError::NoDots { .. }) => {
+            let message = e.to_string();
+            let CheckError::NoDots { photos } = e else { unreachable!() };
+            (DriftCheck { photos, drifted: false, implied_direction_change_deg: None }, Some(message))
+        }
+        Err(e) => return Err(anyhow::Error::new(e).context("drift check")),
+    };
+    match (&refused, args.json) {
+        (Some(error), true) => println!("{}", documents::to_text(&RefusedDocument::new(error, r.photos.clone()))?),
+        (None, true) => println!("{}", documents::to_text(&CheckDocument::from(&r))?),
+        (_, false) => print!("{}", summary(&r)),
     }
     if let Some(dir) = &args.report {
         outputs::say_if_replacing(dir);
@@ -71,6 +80,9 @@ pub fn run(args: CheckArgs) -> anyhow::Result<ExitCode> {
         if !args.json {
             eprintln!("report: {}", index.display());
         }
+    }
+    if let Some(error) = refused {
+        bail!("drift check: {error}");
     }
     if r.drifted {
         bail!(
@@ -115,6 +127,10 @@ fn summary(r: &DriftCheck) -> String {
     if let Some(d) = r.implied_direction_change_deg {
         s += &format!("implied change of the laser's direction: {d:.3} deg (median)\n");
     }
-    s += if r.drifted { "\nverdict: DRIFTED\n" } else { "\nverdict: no drift seen\n" };
+    s += match (with_dot, r.drifted) {
+        (0, _) => "\nverdict: NOT JUDGED (no photo with a dot the calibration can judge; reasons above)\n",
+        (_, true) => "\nverdict: DRIFTED\n",
+        (_, false) => "\nverdict: no drift seen\n",
+    };
     s
 }

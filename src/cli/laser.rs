@@ -8,6 +8,7 @@ use super::signing::PriorUnit;
 use super::signing::{self, SigningArgs};
 use crate::atomic_file::write_atomically;
 use crate::documents::laser::{LaserDocument, LaserLineJson, COVARIANCE_PARAMETERS};
+use crate::documents::refused::RefusedDocument;
 use crate::documents::{self, CameraJson, SCHEMA_VERSION};
 use crate::dot::candidates::DotDetectorParams;
 use crate::laser::fit::{Gates, Method};
@@ -210,7 +211,10 @@ fn fit(args: &LaserArgs, job: &LaserJob) -> anyhow::Result<LaserCalibration> {
     match result {
         Ok(c) => Ok(c),
         Err(LaserError::Fit { source, photos }) => {
-            if !args.json {
+            if args.json {
+                let error = format!("cannot fit the laser: {source}");
+                println!("{}", documents::to_text(&RefusedDocument::new(error, photos.clone()))?);
+            } else {
                 eprint!("{}", photo_table(&photos));
             }
             write_report(args, job, LaserOutcome::Refused { reason: &source, photos: &photos })?;

@@ -4,7 +4,10 @@ use super::body_check::BodyCheckArgs;
 use super::outputs::{self, Input, Output};
 use super::progress;
 use crate::calibration;
-use crate::calibration::validate::{validate, LengthRule, Validation, ValidationJob, ValidationOutcome};
+use crate::calibration::validate::{
+    validate, LengthRule, Validation, ValidationError, ValidationJob, ValidationOutcome,
+};
+use crate::documents::refused::RefusedDocument;
 use crate::documents::validation::{CalibrationUsed, ValidationDocument};
 use crate::documents::{self};
 use crate::dot::candidates::DotDetectorParams;
@@ -97,8 +100,18 @@ pub fn run(args: ValidateArgs) -> anyhow::Result<ExitCode> {
     let bar = progress::bar(args.photos.len(), "photos", args.json);
     let result = validate(&job, &args.photos, &|| bar.inc(1));
     bar.finish_and_clear();
-    let v = result.context("validation")?;
-    if args.json {
+    // Nothing measured is still a run that read photos: each says why, then the error.
+    let (v, refused) = match result {
+        Ok(v) => (v, None),
+        Err(ValidationError::NothingMeasured(v)) => {
+            let message = ValidationError::NothingMeasured(v.clone()).to_string();
+            (*v, Some(message))
+        }
+        Err(e) => return Err(anyhow::Error::new(e).context("validation")),
+    };
+    if let (Some(error), true) = (&refused, args.json) {
+        println!("{}", documents::to_text(&RefusedDocument::new(error, v.photos.clone()))?);
+    } else if args.json {
         let used = CalibrationUsed {
             unit: job.cal.unit.clone(),
             file: args.cal.display().to_string(),
@@ -117,6 +130,9 @@ pub fn run(args: ValidateArgs) -> anyhow::Result<ExitCode> {
         if !args.json {
             eprintln!("report: {}", index.display());
         }
+    }
+    if let Some(error) = refused {
+        bail!("validation: {error}");
     }
     if !v.pass {
         bail!("calibration failed validation: {}", failure(&v));
@@ -190,6 +206,10 @@ fn summary(v: &Validation) -> String {
         }
         None => s += "error against distance: not judged (needs 3 photos spread over 0.5 m or more)\n",
     }
-    s += if v.pass { "\nverdict: PASS\n" } else { "\nverdict: FAIL\n" };
+    s += match (errs.len(), v.pass) {
+        (0, _) => "\nverdict: NOT JUDGED (no photo could be measured; reasons above)\n",
+        (_, true) => "\nverdict: PASS\n",
+        (_, false) => "\nverdict: FAIL\n",
+    };
     s
 }

@@ -125,7 +125,12 @@ pub fn write(dir: &Path, r: &CheckReport) -> Result<PathBuf, ReportError> {
     ));
     let implied =
         r.implied_direction_change_deg.map_or(String::new(), |d| format!("; implied change of direction {d:.3} deg"));
-    if r.drifted {
+    if checked == 0 {
+        page.verdict(
+            Verdict::Rejected,
+            "NOT JUDGED: no photo has a dot the calibration can judge; each photo's reason is below.",
+        );
+    } else if r.drifted {
         page.verdict(Verdict::Rejected, &format!("DRIFTED: {flagged} of {checked} dots off the calibrated line{implied}. Recalibrate the laser before measuring these photos."));
     } else {
         page.verdict(Verdict::Accepted, &format!("No drift: {flagged} of {checked} dots flagged{implied}."));
