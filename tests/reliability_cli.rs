@@ -469,3 +469,37 @@ fn laser_json_that_cannot_fit_lists_every_photo_with_its_reason() {
     every_photo_has_a_reason(&v, &b);
     assert!(v["photos"][0]["reason"].as_str().unwrap().contains("no 9x6 checkerboard found"), "{v}");
 }
+
+#[test]
+fn an_unknown_covariance_reads_unknown_and_never_shrinks_a_length_sigma() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let key = keygen(d, "lead");
+    let (lens, laser) = lab_pkgs(d, "lab", 0.0, 1_780_306_200);
+    let cal = d.join("imported.fslcal");
+    assert!(fslcal(&import_args(&lens, &laser, &key, &cal)).status.success());
+    let c = fslcal::calibration::load(&cal).unwrap();
+    assert_eq!(c.distance_sigma_m(2.0), None, "no sigma from an all-zero covariance");
+    let dot = c.laser.pixel_at_depth(&c.camera, 2.0).unwrap();
+    let photo = d.join("fish.jpg");
+    image::RgbImage::from_pixel(4000, 3000, image::Rgb([40, 80, 90])).save(&photo).unwrap();
+    let dot_arg = format!("{},{}", dot.x, dot.y);
+    let args =
+        ["measure", "--cal", s(&cal), s(&photo), "--head", "1500,1400", "--tail", "2100,1420", "--dot", &dot_arg];
+    let o = fslcal(&args);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let text = String::from_utf8_lossy(&o.stdout);
+    assert!(text.contains("± unknown (1-sigma)") && text.contains("calibration unknown"), "{text}");
+    assert!(text.contains("covariance is unknown"), "{text}");
+    let mut json_args = args.to_vec();
+    json_args.push("--json");
+    let v = json(&fslcal(&json_args));
+    let l = &v;
+    assert!(l["length_m"].as_f64().unwrap() > 0.1, "{v}");
+    assert!(l["length_sigma_m"].is_null() && l["distance_sigma_m"].is_null(), "{v}");
+    assert!(l["distance_sigma_calibration_m"].is_null() && l["distance_sigma_dot_m"].as_f64().unwrap() > 0.0, "{v}");
+    // inspect: "unknown", and JSON null, never zeros.
+    let text = String::from_utf8_lossy(&fslcal(&["inspect", s(&cal)]).stdout).into_owned();
+    assert!(text.contains("mm ± unknown, direction") && text.contains("covariance unknown"), "{text}");
+    assert!(json(&fslcal(&["inspect", s(&cal), "--json"]))["laser"]["covariance"].is_null());
+}

@@ -71,7 +71,7 @@ pub fn run(args: CheckArgs) -> anyhow::Result<ExitCode> {
     match (&refused, args.json) {
         (Some(error), true) => println!("{}", documents::to_text(&RefusedDocument::new(error, r.photos.clone()))?),
         (None, true) => println!("{}", documents::to_text(&CheckDocument::from(&r))?),
-        (_, false) => print!("{}", summary(&r)),
+        (_, false) => print!("{}", summary(&r, fslcal_core::covariance_known(&cal.laser_covariance))),
     }
     if let Some(dir) = &args.report {
         outputs::say_if_replacing(dir);
@@ -98,9 +98,12 @@ fn name_of(file: &str) -> String {
     Path::new(file).file_name().map_or_else(|| file.to_string(), |n| n.to_string_lossy().into_owned())
 }
 
-fn summary(r: &DriftCheck) -> String {
+fn summary(r: &DriftCheck, covariance_known: bool) -> String {
     let width = r.photos.iter().map(|p| name_of(&p.file).len()).max().unwrap_or(4).max(4);
     let mut s = format!("fslcal check: {} photos\n\n", r.photos.len());
+    if !covariance_known {
+        s += "the calibration's covariance is unknown (an imported calibration records none): the flag threshold counts the dot's localisation only\n\n";
+    }
     s += &format!(
         "  {:width$}  {:>19}  {:>7}  {:>9}  {:>8}  {}\n",
         "file", "dot px", "dist m", "offset px", "sigma px", "status"

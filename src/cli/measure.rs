@@ -240,22 +240,33 @@ fn single(args: &MeasureArgs) -> anyhow::Result<ExitCode> {
         println!("{}", documents::to_text(&document)?);
     } else {
         println!(
-            "{}: length {:.1} mm ± {:.1} mm (1-sigma), distance {:.3} m ± {:.1} mm (calibration {:.1} mm, dot {:.1} mm); dot {:.2} px from the laser line",
+            "{}: length {:.1} mm ± {} (1-sigma), distance {:.3} m ± {} (calibration {}, dot {:.1} mm); dot {:.2} px from the laser line",
             photo.display(),
             length.length_m * 1e3,
-            length.length_sigma_m * 1e3,
+            mm(length.length_sigma_m),
             length.distance_m,
-            length.distance_sigma_m * 1e3,
-            length.distance_sigma_calibration_m * 1e3,
+            mm(length.distance_sigma_m),
+            mm(length.distance_sigma_calibration_m),
             length.distance_sigma_dot_m * 1e3,
             length.dot_offset_px,
         );
+        if length.distance_sigma_calibration_m.is_none() {
+            println!("  {UNKNOWN_COVARIANCE}");
+        }
         if let Some(e) = &fish.ends {
             println!("  {}", head_call_text(e.head_call));
         }
     }
     Ok(ExitCode::SUCCESS)
 }
+
+/// A 1-sigma in millimetres, or "unknown" when the calibration's covariance is.
+fn mm(sigma_m: Option<f64>) -> String {
+    sigma_m.map_or_else(|| "unknown".into(), |s| format!("{:.1} mm", s * 1e3))
+}
+
+/// Said once with lengths whose 1-sigma is unknown.
+const UNKNOWN_COVARIANCE: &str = "the calibration's covariance is unknown (an imported calibration records none): the 1-sigma cannot be given, and the dot's part alone would understate it";
 
 /// The one fish's end points: from `--mask` or from `--head` and `--tail`.
 struct OneFish {
@@ -554,6 +565,9 @@ fn batch(args: &MeasureArgs) -> anyhow::Result<ExitCode> {
         println!("{}", documents::to_text(&document)?);
     } else {
         print!("{}", table(&rows));
+        if rows.iter().any(|r| r.result.as_ref().is_ok_and(|l| l.distance_sigma_calibration_m.is_none())) {
+            println!("{UNKNOWN_COVARIANCE}");
+        }
         if !unlabelled.is_empty() {
             println!("{} photo(s) without a labelled fish", unlabelled.len());
         }
@@ -579,8 +593,8 @@ fn row_document(r: &FishRow) -> FishRowJson {
         head_call: r.head_call,
         length_m: length.map(|l| l.length_m),
         distance_m: length.map(|l| l.distance_m),
-        length_sigma_m: length.map(|l| l.length_sigma_m),
-        distance_sigma_m: length.map(|l| l.distance_sigma_m),
+        length_sigma_m: length.and_then(|l| l.length_sigma_m),
+        distance_sigma_m: length.and_then(|l| l.distance_sigma_m),
         dot_offset_px: length.map(|l| l.dot_offset_px),
         flags: r.result.as_ref().err().cloned().unwrap_or_default(),
     }
@@ -599,8 +613,14 @@ fn table(rows: &[FishRow]) -> String {
     for r in rows {
         let (length, distance, status) = match &r.result {
             Ok(l) => (
-                format!("{:.1} ± {:.1}", l.length_m * 1e3, l.length_sigma_m * 1e3),
-                format!("{:.3} ± {:.3}", l.distance_m, l.distance_sigma_m),
+                match l.length_sigma_m {
+                    Some(s) => format!("{:.1} ± {:.1}", l.length_m * 1e3, s * 1e3),
+                    None => format!("{:.1} ± unknown", l.length_m * 1e3),
+                },
+                match l.distance_sigma_m {
+                    Some(s) => format!("{:.3} ± {s:.3}", l.distance_m),
+                    None => format!("{:.3} ± unknown", l.distance_m),
+                },
                 "measured".to_string(),
             ),
             Err(flags) => (
@@ -625,7 +645,17 @@ fn rows_csv(rows: &[FishRow]) -> String {
     for r in rows {
         let (numbers, flags) = match &r.result {
             Ok(l) => (
-                format!("{:.5},{:.5},{:.4},{:.5}", l.length_m, l.length_sigma_m, l.distance_m, l.distance_sigma_m),
+                {
+                    // An unknown 1-sigma is an empty field, never 0.
+                    let or_empty = |s: Option<f64>, d: usize| s.map_or(String::new(), |s| format!("{s:.d$}"));
+                    format!(
+                        "{:.5},{},{:.4},{}",
+                        l.length_m,
+                        or_empty(l.length_sigma_m, 5),
+                        l.distance_m,
+                        or_empty(l.distance_sigma_m, 5)
+                    )
+                },
                 String::new(),
             ),
             Err(f) => (",,,".to_string(), f.iter().map(Withheld::flag_name).collect::<Vec<_>>().join(";")),
