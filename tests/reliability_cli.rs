@@ -503,3 +503,104 @@ fn an_unknown_covariance_reads_unknown_and_never_shrinks_a_length_sigma() {
     assert!(text.contains("mm ± unknown, direction") && text.contains("covariance unknown"), "{text}");
     assert!(json(&fslcal(&["inspect", s(&cal), "--json"]))["laser"]["covariance"].is_null());
 }
+
+/// A value refused when the command line is parsed: clap's exit status 2, the cause in the
+/// message, and no number printed as hundreds of digits.
+fn refused_at_parse(args: &[&str], expect: &str) {
+    let o = fslcal(args);
+    let err = stderr(&o);
+    assert_eq!(o.status.code(), Some(2), "{args:?}: {err}");
+    assert!(err.contains(expect), "{args:?}: expected `{expect}` in: {err}");
+    assert!(err.len() < 600 && !err.contains("panicked"), "{err}");
+}
+
+#[test]
+fn options_are_refused_at_parse_time_with_their_true_cause() {
+    let laser = |opt: &str, value: &str| {
+        let mut a = vec!["laser", "--camera", "c.yml", "x.jpg"];
+        if opt != "--target" {
+            a.extend(["--target", "checkerboard:14x10@42.17mm"]);
+        }
+        a.extend([opt, value]);
+        a.into_iter().map(String::from).collect::<Vec<_>>()
+    };
+    let cases: Vec<(Vec<String>, &str)> = vec![
+        (vec!["camera".into(), "--board".into(), "2x2@40mm".into(), "x.jpg".into()], "3x3 inner corners or more"),
+        (
+            laser("--target", "checkerboard:14x10@42.17cm"),
+            "the square size is in cm; fslcal takes mm or m: write `421.7mm`",
+        ),
+        (laser("--target", "checkerboard:14x10@1e308mm"), "a 1.000e308 mm square is not plausible"),
+        (laser("--max-dot-offset-px", "0"), "expected a number of pixels above 0"),
+        (laser("--max-dot-offset-px", "-3"), "expected a number of pixels above 0"),
+        (laser("--max-dot-offset-px", "NaN"), "not a finite number"),
+        (laser("--water-depth-m", "-5"), "metres below the surface, 0 or more"),
+        (laser("--water-depth-m", "inf"), "not a finite number"),
+        (laser("--baseline-range-mm", "78,inf"), "not a finite number"),
+        (
+            vec![
+                "import".into(),
+                "a".into(),
+                "b".into(),
+                "--out".into(),
+                "o.fslcal".into(),
+                "--water-depth-m".into(),
+                "NaN".into(),
+            ],
+            "not a finite number",
+        ),
+        (
+            vec![
+                "import".into(),
+                "a".into(),
+                "b".into(),
+                "--out".into(),
+                "o.fslcal".into(),
+                "--image-size".into(),
+                "99999999x99999999".into(),
+            ],
+            "each side must be 1 to 30000 pixels",
+        ),
+        (
+            vec![
+                "validate".into(),
+                "--cal".into(),
+                "c".into(),
+                "--target".into(),
+                "9x6@25mm".into(),
+                "--tolerance".into(),
+                "1e308".into(),
+                "x.jpg".into(),
+            ],
+            "expected a percentage between 0 and 100",
+        ),
+        (
+            vec!["develop".into(), "--out".into(), "d".into(), "--jobs".into(), "99999".into(), "x.orf".into()],
+            "from 1 to 64",
+        ),
+    ];
+    for (args, expect) in cases {
+        refused_at_parse(&args.iter().map(String::as_str).collect::<Vec<_>>(), expect);
+    }
+}
+
+#[test]
+fn a_zero_length_fish_a_stray_dot_and_conflicting_dot_rows_are_refused() {
+    let b = blank_photos();
+    let d = b._dir.path();
+    refused(
+        &fslcal(&["measure", "--cal", s(&b.cal), s(&b.photos[0]), "--head", "100,200", "--tail", "100,200"]),
+        "--head 100,200 and --tail 100,200 are the same point",
+    );
+    let laser = |extra: &[&str]| {
+        let mut a = vec!["laser", "--camera", s(&b.camera_file), "--target", "checkerboard:9x6@25mm"];
+        a.extend_from_slice(extra);
+        a.extend(b.photos[..3].iter().map(|p| s(p)));
+        fslcal(&a)
+    };
+    refused(&laser(&["--dot", "grey_9.jpg=10,20"]), "grey_9.jpg is not one of this run's photos");
+    refused(&laser(&["--dot", "grey_0.jpg=10,20", "--dot", "grey_0.jpg=11,20"]), "a second --dot for grey_0.jpg");
+    let csv = d.join("dots.csv");
+    std::fs::write(&csv, "file,x,y\ngrey_0.jpg,10,20\ngrey_1.jpg,30,40\ngrey_0.jpg,12,20\n").unwrap();
+    refused(&laser(&["--dots", s(&csv)]), "dots.csv:4: a second, different dot for grey_0.jpg (line 2 gives another)");
+}

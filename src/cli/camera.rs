@@ -47,7 +47,7 @@ pub struct CameraArgs {
 }
 
 fn parse_board(s: &str) -> Result<Checkerboard, String> {
-    s.parse::<Checkerboard>().map_err(|e| e.to_string())
+    crate::laser::target::parse_checkerboard(s)
 }
 
 pub fn run(args: CameraArgs) -> anyhow::Result<ExitCode> {

@@ -26,8 +26,8 @@ pub struct DevelopArgs {
     #[arg(long = "16bit")]
     sixteen_bit: bool,
 
-    /// Photos developed at once (default: one per core).
-    #[arg(long, value_name = "N")]
+    /// Photos developed at once, 1 to 64 (default: one per core; never more than the raws).
+    #[arg(long, value_name = "N", value_parser = super::parse::jobs)]
     jobs: Option<usize>,
 
     /// Print one JSON object instead of the summary.
@@ -107,7 +107,9 @@ pub fn run(args: DevelopArgs) -> anyhow::Result<ExitCode> {
     let inputs: Vec<Input> = args.raws.iter().map(|r| Input::new("raw", r)).collect();
     let outs: Vec<Output> = pngs.iter().map(|p| Output::file("--out", p)).collect();
     outputs::check(&inputs, &outs, false)?;
-    let jobs = args.jobs.unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get())).max(1);
+    let jobs = args.jobs.unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get()));
+    // A thread per photo at most: more would only wait (and each is a stack).
+    let jobs = jobs.clamp(1, args.raws.len().max(1));
     // A pool of `jobs` threads, each developing one photo at a time: memory is bounded by
     // the pool, not by the batch.
     let pool = rayon::ThreadPoolBuilder::new().num_threads(jobs).build().context("cannot start worker threads")?;

@@ -31,7 +31,7 @@ pub struct ImportArgs {
     signing: SigningArgs,
 
     /// Image size the lens calibration was made at, pixels.
-    #[arg(long, value_name = "WxH", default_value = "4000x3000", value_parser = parse_size)]
+    #[arg(long, value_name = "WxH", default_value = "4000x3000", value_parser = super::parse::image_size)]
     image_size: (u32, u32),
 
     /// The unit file to write.
@@ -41,14 +41,6 @@ pub struct ImportArgs {
     /// Print one JSON object instead of the summary.
     #[arg(long)]
     json: bool,
-}
-
-fn parse_size(s: &str) -> Result<(u32, u32), String> {
-    let (w, h) = s.split_once('x').ok_or("expected WIDTHxHEIGHT in pixels, e.g. 4000x3000")?;
-    match (w.trim().parse(), h.trim().parse()) {
-        (Ok(w), Ok(h)) if w > 0 && h > 0 => Ok((w, h)),
-        _ => Err("expected WIDTHxHEIGHT in pixels, e.g. 4000x3000".into()),
-    }
 }
 
 fn read(path: &Path) -> anyhow::Result<Vec<u8>> {

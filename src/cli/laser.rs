@@ -2,6 +2,7 @@
 
 use super::body_check::BodyCheckArgs;
 use super::outputs::{self, Input, Output};
+use super::parse;
 use super::pixels::{parse_pixel, read_dots_csv};
 use super::progress;
 use super::signing::PriorUnit;
@@ -61,11 +62,11 @@ pub struct LaserArgs {
     dots: Option<PathBuf>,
 
     /// Plausible camera-to-laser baseline for the rig, millimetres.
-    #[arg(long, value_name = "MIN,MAX", default_value = "78,145", value_parser = parse_range_mm)]
+    #[arg(long, value_name = "MIN,MAX", default_value = "78,145", value_parser = parse::range_mm)]
     baseline_range_mm: (f64, f64),
 
     /// A used dot must lie within this many pixels of the fitted line's image.
-    #[arg(long, value_name = "PX", default_value_t = 4.0)]
+    #[arg(long, value_name = "PX", default_value = "4", value_parser = parse::positive_px, allow_negative_numbers = true)]
     max_dot_offset_px: f64,
 
     #[command(flatten)]
@@ -94,18 +95,6 @@ pub struct LaserArgs {
     photos: Vec<PathBuf>,
 }
 
-fn parse_range_mm(s: &str) -> Result<(f64, f64), String> {
-    let (a, b) = s.split_once(',').ok_or("expected MIN,MAX in millimetres, e.g. 78,145")?;
-    let (a, b): (f64, f64) = (
-        a.trim().parse().map_err(|_| format!("`{a}` is not a number"))?,
-        b.trim().parse().map_err(|_| format!("`{b}` is not a number"))?,
-    );
-    if !(a > 0.0 && b > a) {
-        return Err("expected 0 < MIN < MAX".into());
-    }
-    Ok((a / 1e3, b / 1e3))
-}
-
 fn hand_dots(args: &LaserArgs) -> anyhow::Result<HandDots> {
     let mut dots = HandDots::default();
     if let Some(csv) = &args.dots {
@@ -113,9 +102,14 @@ fn hand_dots(args: &LaserArgs) -> anyhow::Result<HandDots> {
             dots.insert(Path::new(&file), px);
         }
     }
+    let mut given = std::collections::HashSet::new();
     for d in &args.dot {
         let (photo, xy) = d.split_once('=').unwrap_or((d, ""));
         let px = parse_pixel(xy).with_context(|| format!("--dot {d}: expected PHOTO=X,Y with X and Y in pixels"))?;
+        check_dot_photo(d, Path::new(photo), &args.photos)?;
+        if !given.insert(photo) {
+            bail!("--dot {d}: a second --dot for {photo}; give each photo's dot once");
+        }
         dots.insert(Path::new(photo), px);
     }
     Ok(dots)
@@ -134,6 +128,16 @@ fn check_outputs(args: &LaserArgs) -> anyhow::Result<()> {
     outs.extend(args.out.as_deref().map(|p| Output::result("--out", p)));
     outs.extend(args.report.as_deref().map(|p| Output::report("--report", p)));
     Ok(outputs::check(&inputs, &outs, args.signing.force)?)
+}
+
+/// Refuses a `--dot` for a photo that is not in the run (as given, or by file name, the
+/// way the dot is looked up): a typo must not leave the photo to detection silently.
+fn check_dot_photo(option: &str, photo: &Path, photos: &[PathBuf]) -> anyhow::Result<()> {
+    let name = photo.file_name();
+    if photos.iter().any(|p| p == photo || (name.is_some() && p.file_name() == name)) {
+        return Ok(());
+    }
+    bail!("--dot {option}: {} is not one of this run's photos; name it as given on the command line", photo.display())
 }
 
 pub fn run(args: LaserArgs) -> anyhow::Result<ExitCode> {

@@ -75,7 +75,7 @@ pub struct MeasureArgs {
     dots: Option<PathBuf>,
 
     /// 1-sigma of a dot's centre in pixels, for the length's 1-sigma and the off-line check.
-    #[arg(long, value_name = "PX", default_value_t = 1.0)]
+    #[arg(long, value_name = "PX", default_value = "1", value_parser = super::parse::positive_px, allow_negative_numbers = true)]
     dot_sigma_px: f64,
 
     /// Write one row per fish here (CSV).
@@ -120,8 +120,18 @@ fn check_outputs(args: &MeasureArgs) -> anyhow::Result<()> {
 
 pub fn run(args: MeasureArgs) -> anyhow::Result<ExitCode> {
     check_outputs(&args)?;
-    if !(args.dot_sigma_px > 0.0 && args.dot_sigma_px.is_finite()) {
-        bail!("--dot-sigma-px must be a positive number of pixels");
+    if let (Some(head), Some(tail)) = (args.head, args.tail) {
+        // Before any work: a zero-length fish would be measured as 0.0 mm ± 0.0.
+        if (head - tail).norm() < 1.0 {
+            let show = super::parse::show_number;
+            bail!(
+                "--head {},{} and --tail {},{} are the same point: give the snout and the fork of the tail",
+                show(head.x),
+                show(head.y),
+                show(tail.x),
+                show(tail.y)
+            );
+        }
     }
     for p in &args.photos {
         if !p.is_file() {

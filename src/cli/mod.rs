@@ -15,6 +15,7 @@ mod keygen;
 mod laser;
 mod measure;
 mod outputs;
+mod parse;
 mod pixels;
 mod progress;
 mod signing;
@@ -24,6 +25,7 @@ mod validate;
 mod verify;
 
 pub use develop::develop_one;
+pub use parse::show_number;
 
 use clap::{Parser, Subcommand};
 use std::process::ExitCode;

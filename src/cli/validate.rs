@@ -41,7 +41,7 @@ pub struct ValidateArgs {
     length: Option<String>,
 
     /// Pass when every photo's length error is within this many percent.
-    #[arg(long, value_name = "PCT", default_value_t = 3.0)]
+    #[arg(long, value_name = "PCT", default_value = "3", value_parser = super::parse::percentage, allow_negative_numbers = true)]
     tolerance: f64,
 
     /// Where the end points lie: on the plane through the dot with the target's detected
@@ -68,9 +68,6 @@ pub struct ValidateArgs {
 }
 
 pub fn run(args: ValidateArgs) -> anyhow::Result<ExitCode> {
-    if !(args.tolerance > 0.0 && args.tolerance < 100.0) {
-        bail!("--tolerance {}: expected a percentage between 0 and 100", args.tolerance);
-    }
     let mut inputs = vec![Input::new("--cal", &args.cal)];
     if let TargetArg::Slate(p) = &args.target {
         inputs.push(Input::new("--target", p));
