@@ -604,3 +604,77 @@ fn a_zero_length_fish_a_stray_dot_and_conflicting_dot_rows_are_refused() {
     std::fs::write(&csv, "file,x,y\ngrey_0.jpg,10,20\ngrey_1.jpg,30,40\ngrey_0.jpg,12,20\n").unwrap();
     refused(&laser(&["--dots", s(&csv)]), "dots.csv:4: a second, different dot for grey_0.jpg (line 2 gives another)");
 }
+
+#[test]
+fn a_tiff_a_fake_orf_a_folder_and_a_file_as_masks_get_true_messages() {
+    let b = blank_photos();
+    let d = b._dir.path();
+    let tiff = d.join("scan.tif");
+    std::fs::write(&tiff, b"II*\0\x08\0\0\0 a little-endian TIFF").unwrap();
+    let orf = d.join("P1010001.ORF");
+    std::fs::write(&orf, vec![0x5a; 4096]).unwrap();
+    let mut args = vec!["check", "--cal", s(&b.cal), "--json", s(&b.photos[0]), s(&tiff), s(&orf)];
+    let v: serde_json::Value = serde_json::from_slice(&fslcal(&args).stdout).unwrap();
+    let reason = |i: usize| v["photos"][i]["reason"].as_str().unwrap().to_string();
+    assert!(
+        reason(1).contains("a TIFF image, which fslcal does not read; it reads JPEG, PNG and Olympus ORF raw"),
+        "{v}"
+    );
+    assert!(reason(2).contains("not an Olympus ORF raw file (no ORF header)"), "{v}");
+    assert!(!reason(2).contains("JPEG/PNG"), "{v}");
+    args.push(s(d));
+    refused(&fslcal(&args), "a folder, not a photo; give the photos in it");
+    refused(
+        &fslcal(&["measure", "--cal", s(&b.cal), "--masks", s(&b.photos[0]), s(&b.photos[1])]),
+        "a file, not a folder of masks",
+    );
+    for command in ["camera", "measure", "laser"] {
+        let help = String::from_utf8_lossy(&fslcal(&[command, "--help"]).stdout).into_owned();
+        assert!(help.contains("Olympus ORF raw"), "{command} --help: {help}");
+        assert!(!help.contains("TIFF"), "{command} --help names TIFF: {help}");
+    }
+}
+
+#[test]
+fn a_non_utf8_file_name_keeps_its_thumbnail() {
+    use std::os::unix::ffi::OsStrExt;
+    let b = blank_photos();
+    let d = b._dir.path();
+    let odd = d.join(std::ffi::OsStr::from_bytes(b"dive\xff3.jpg"));
+    std::fs::copy(&b.photos[0], &odd).unwrap();
+    let report = d.join("report");
+    let o = Command::new(env!("CARGO_BIN_EXE_fslcal"))
+        .args(["check", "--cal", s(&b.cal), "--report", s(&report), s(&b.photos[1])])
+        .arg(&odd)
+        .output()
+        .unwrap();
+    assert_eq!(o.status.code(), Some(1), "no dot in a grey photo: {}", stderr(&o));
+    let html = std::fs::read_to_string(report.join("index.html")).unwrap();
+    assert_eq!(html.matches("<img src=\"thumbs/").count(), 2, "both photos have their thumbnail: {html}");
+    assert!(!html.contains("no thumbnail"), "{html}");
+}
+
+#[test]
+fn a_missing_file_says_its_cause_once() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    std::fs::write(d.join("x.jpg"), b"\xff\xd8").unwrap();
+    let cases: Vec<Vec<String>> = vec![
+        vec!["develop".into(), "--out".into(), s(&d.join("png")).into(), s(&d.join("nope.orf")).into()],
+        vec![
+            "laser".into(),
+            "--camera".into(),
+            s(&d.join("nope.yml")).into(),
+            "--target".into(),
+            "9x6@25mm".into(),
+            s(&d.join("x.jpg")).into(),
+        ],
+        vec!["inspect".into(), s(&d.join("nope.fslcal")).into()],
+    ];
+    for args in cases {
+        let o = fslcal(&args.iter().map(String::as_str).collect::<Vec<_>>());
+        let err = stderr(&o);
+        assert_eq!(o.status.code(), Some(1), "{err}");
+        assert_eq!(err.matches("No such file or directory").count(), 1, "{args:?}: {err}");
+    }
+}

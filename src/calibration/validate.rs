@@ -54,7 +54,7 @@ pub struct Validation {
 
 #[derive(Debug, thiserror::Error)]
 pub enum ValidationError {
-    #[error("{0}")]
+    #[error(transparent)]
     Photo(#[from] LaserError),
     #[error("the slate has no length named `{name}` (it has: {have}); see docs/slate.md")]
     NoSuchLength { name: String, have: String },

@@ -9,7 +9,7 @@ use crate::camera::residuals::FRAME_CORNER_SHARE;
 use crate::documents::{self, camera::CameraDocument, XOfN};
 use crate::photo::identity::photos_exif;
 use crate::report::{self, camera::CameraReport};
-use anyhow::{bail, Context};
+use anyhow::Context;
 use calib_targets::Checkerboard;
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
@@ -41,7 +41,7 @@ pub struct CameraArgs {
     #[arg(long, value_name = "DIR")]
     report: Option<PathBuf>,
 
-    /// Calibration photos (JPEG or PNG), all from the same camera mode.
+    /// Calibration photos (JPEG, PNG or Olympus ORF raw), all from the same camera mode.
     #[arg(required = true, value_name = "PHOTOS")]
     photos: Vec<PathBuf>,
 }
@@ -56,11 +56,7 @@ pub fn run(args: CameraArgs) -> anyhow::Result<ExitCode> {
     outs.extend(args.out.as_deref().map(|p| Output::file("--out", p)));
     outs.extend(args.report.as_deref().map(|p| Output::report("--report", p)));
     outputs::check(&inputs, &outs, false)?;
-    for p in &args.photos {
-        if !p.is_file() {
-            bail!("{}: no such photo", p.display());
-        }
-    }
+    let args = CameraArgs { photos: super::photos::prepare(&args.photos)?, ..args };
     let job = CameraJob::new(args.board);
     let bar = progress::bar(args.photos.len(), "photos", args.json);
     let result = calibrate(&job, &args.photos, &|| bar.inc(1));
@@ -73,8 +69,7 @@ pub fn run(args: CameraArgs) -> anyhow::Result<ExitCode> {
     }
     if let Some(dir) = &args.report {
         outputs::say_if_replacing(dir);
-        let index = report::camera::write(dir, &CameraReport { board: &args.board, calibration: &cal })
-            .with_context(|| format!("{}: cannot write the report", dir.display()))?;
+        let index = report::camera::write(dir, &CameraReport { board: &args.board, calibration: &cal })?;
         if !args.json {
             eprintln!("report: {}", index.display());
         }

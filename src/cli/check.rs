@@ -8,7 +8,7 @@ use crate::calibration::drift::{check, CheckError, CheckOutcome, DriftCheck, FLA
 use crate::documents::{self, check::CheckDocument, refused::RefusedDocument};
 use crate::photo::identity::ExpectedCamera;
 use crate::report::{self, check::CheckReport};
-use anyhow::{bail, Context};
+use anyhow::bail;
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
@@ -49,11 +49,7 @@ pub fn run(args: CheckArgs) -> anyhow::Result<ExitCode> {
     let outs: Vec<Output> = args.report.as_deref().map(|p| Output::report("--report", p)).into_iter().collect();
     outputs::check(&inputs, &outs, false)?;
     let cal = calibration::load(&args.cal)?;
-    for p in &args.photos {
-        if !p.is_file() {
-            bail!("{}: no such photo", p.display());
-        }
-    }
+    let args = CheckArgs { photos: super::photos::prepare(&args.photos)?, ..args };
     args.body.check(&ExpectedCamera::from(&cal), &args.photos)?;
     let bar = progress::bar(args.photos.len(), "photos", args.json);
     let result = check(&cal, &args.photos, &|| bar.inc(1));
@@ -75,8 +71,7 @@ pub fn run(args: CheckArgs) -> anyhow::Result<ExitCode> {
     }
     if let Some(dir) = &args.report {
         outputs::say_if_replacing(dir);
-        let index = report::check::write(dir, &CheckReport::of(&r, &cal))
-            .with_context(|| format!("{}: cannot write the report", dir.display()))?;
+        let index = report::check::write(dir, &CheckReport::of(&r, &cal))?;
         if !args.json {
             eprintln!("report: {}", index.display());
         }

@@ -123,7 +123,7 @@ pub fn run(args: DevelopArgs) -> anyhow::Result<ExitCode> {
             .map(|raw| {
                 let r = develop_one(raw, &args.out, args.sixteen_bit).map(|(out, gains)| Developed { out, gains });
                 if let Err(e) = &r {
-                    bar.suspend(|| eprintln!("fslcal: skipped: {e:#}"));
+                    bar.suspend(|| eprintln!("fslcal: skipped: {}", super::error_line(e)));
                 }
                 bar.inc(1);
                 r
@@ -132,7 +132,7 @@ pub fn run(args: DevelopArgs) -> anyhow::Result<ExitCode> {
     });
     bar.finish_and_clear();
     let elapsed = started.elapsed().as_secs_f64();
-    let failed: Vec<String> = results.iter().filter_map(|r| r.as_ref().err().map(|e| format!("{e:#}"))).collect();
+    let failed: Vec<String> = results.iter().filter_map(|r| r.as_ref().err().map(super::error_line)).collect();
     let done = results.len() - failed.len();
     if args.json {
         let photos: Vec<_> = args
@@ -141,7 +141,7 @@ pub fn run(args: DevelopArgs) -> anyhow::Result<ExitCode> {
             .zip(&results)
             .map(|(raw, r)| match r {
                 Ok(d) => json!({"raw": raw.display().to_string(), "png": d.out.display().to_string(), "grey_world_gains": d.gains}),
-                Err(e) => json!({"raw": raw.display().to_string(), "error": format!("{e:#}")}),
+                Err(e) => json!({"raw": raw.display().to_string(), "error": super::error_line(e)}),
             })
             .collect();
         println!(

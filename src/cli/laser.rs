@@ -142,6 +142,7 @@ fn check_dot_photo(option: &str, photo: &Path, photos: &[PathBuf]) -> anyhow::Re
 
 pub fn run(args: LaserArgs) -> anyhow::Result<ExitCode> {
     check_outputs(&args)?;
+    let args = LaserArgs { photos: super::photos::prepare(&args.photos)?, ..args };
     let (camera, prior, expected) = signing::read_camera(&args.camera, &args.signing)?;
     let signed_out = args.out.as_deref().filter(|o| signing::is_unit_file_path(o));
     if let Some(out) = signed_out {
@@ -187,11 +188,6 @@ pub fn run(args: LaserArgs) -> anyhow::Result<ExitCode> {
 /// The run's settings from the options, once the photos are there and from the right body.
 fn job(args: &LaserArgs, camera: CameraModel, expected: &ExpectedCamera) -> anyhow::Result<LaserJob> {
     let hand_dots = hand_dots(args)?;
-    for p in &args.photos {
-        if !p.is_file() {
-            bail!("{}: no such photo", p.display());
-        }
-    }
     args.body.check(expected, &args.photos)?;
     Ok(LaserJob {
         camera,
@@ -262,8 +258,7 @@ fn write_report(args: &LaserArgs, job: &LaserJob, outcome: LaserOutcome) -> anyh
     let Some(dir) = &args.report else { return Ok(()) };
     let report = LaserReport { job, camera_file: &args.camera, outcome };
     outputs::say_if_replacing(dir);
-    let index =
-        report::laser::write(dir, &report).with_context(|| format!("{}: cannot write the report", dir.display()))?;
+    let index = report::laser::write(dir, &report)?;
     if !args.json {
         // On stderr: a refused fit's summary went there too, and stdout may be piped.
         eprintln!("report: {}", index.display());

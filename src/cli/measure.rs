@@ -90,7 +90,7 @@ pub struct MeasureArgs {
     #[arg(long)]
     json: bool,
 
-    /// Photos (JPEG or PNG).
+    /// Photos (JPEG, PNG or Olympus ORF raw).
     #[arg(value_name = "PHOTOS")]
     photos: Vec<PathBuf>,
 }
@@ -133,11 +133,7 @@ pub fn run(args: MeasureArgs) -> anyhow::Result<ExitCode> {
             );
         }
     }
-    for p in &args.photos {
-        if !p.is_file() {
-            bail!("{}: no such photo", p.display());
-        }
-    }
+    let args = MeasureArgs { photos: super::photos::prepare(&args.photos)?, ..args };
     if args.labels.is_some() || args.masks.is_some() {
         return batch(&args);
     }
@@ -517,6 +513,10 @@ fn batch(args: &MeasureArgs) -> anyhow::Result<ExitCode> {
         None => Vec::new(),
     };
     let source = match &args.masks {
+        Some(dir) if dir.is_file() => bail!(
+            "{}: a file, not a folder of masks; give the folder the masks are in (--mask FILE is for one fish)",
+            dir.display()
+        ),
         Some(dir) if !dir.is_dir() => bail!("{}: no such folder of masks", dir.display()),
         Some(dir) => Ends::Masks(dir),
         None => Ends::Labels(&labels),

@@ -16,7 +16,7 @@ use crate::photo::identity::ExpectedCamera;
 use crate::report::{self, validate::ValidationReport};
 use crate::units::registry::sha256_hex;
 use crate::utc_time;
-use anyhow::{bail, Context};
+use anyhow::bail;
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
@@ -79,11 +79,7 @@ pub fn run(args: ValidateArgs) -> anyhow::Result<ExitCode> {
         .map_err(|cause| calibration::CalibrationError::Io { path: args.cal.display().to_string(), cause })?;
     let cal = calibration::from_bytes(&bytes, &args.cal)?;
     let validated_utc_s = utc_time::now_s();
-    for p in &args.photos {
-        if !p.is_file() {
-            bail!("{}: no such photo", p.display());
-        }
-    }
+    let args = ValidateArgs { photos: super::photos::prepare(&args.photos)?, ..args };
     args.body.check(&ExpectedCamera::from(&cal), &args.photos)?;
     let target = args.target.load()?;
     let job = ValidationJob {
@@ -122,8 +118,7 @@ pub fn run(args: ValidateArgs) -> anyhow::Result<ExitCode> {
     if let Some(dir) = &args.report {
         let page = ValidationReport::of(&v, &args.cal, job.target.to_string());
         outputs::say_if_replacing(dir);
-        let index = report::validate::write(dir, &page)
-            .with_context(|| format!("{}: cannot write the report", dir.display()))?;
+        let index = report::validate::write(dir, &page)?;
         if !args.json {
             eprintln!("report: {}", index.display());
         }

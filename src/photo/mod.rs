@@ -3,4 +3,5 @@
 
 pub mod exif;
 pub mod identity;
+pub mod names;
 pub mod raw;

@@ -22,8 +22,9 @@ use std::path::{Path, PathBuf};
 
 #[derive(Debug, thiserror::Error)]
 pub enum ReportError {
-    #[error("{path}: cannot write the report: {source}")]
-    Io { path: String, source: std::io::Error },
+    /// The cause is in the message, not a `source`, or `{:#}` would say it twice.
+    #[error("{path}: cannot write the report: {cause}")]
+    Io { path: String, cause: std::io::Error },
     #[error("cannot draw the plot `{name}`: {message}")]
     Plot { name: String, message: String },
 }
@@ -79,7 +80,8 @@ pub fn thumbnail_cells(files: &mut ReportFiles, photos: &[(&str, thumbnail::Over
     use rayon::prelude::*;
     let drawn: Vec<Result<thumbnail::Thumbnail, thumbnail::ThumbnailError>> = photos
         .par_iter()
-        .map(|(path, overlay)| thumbnail::draw(Path::new(path), THUMBNAIL_WIDTH_PX, overlay))
+        // The photo itself, even when its path is not UTF-8 and the text lost some bytes.
+        .map(|(path, overlay)| thumbnail::draw(&crate::photo::names::path_of(path), THUMBNAIL_WIDTH_PX, overlay))
         .collect();
     photos
         .iter()
@@ -265,7 +267,7 @@ impl ReportFiles {
     /// Replaces the folder `dir` (created if missing) with these files and `index.html`.
     /// Returns the path of `index.html`.
     pub fn write(self, dir: &Path, page: &Page) -> Result<PathBuf, ReportError> {
-        let io = |path: &Path, source| ReportError::Io { path: path.display().to_string(), source };
+        let io = |path: &Path, cause| ReportError::Io { path: path.display().to_string(), cause };
         replace_dir_atomically(dir, |tmp| {
             for (rel, bytes) in &self.files {
                 let path = tmp.join(rel);
