@@ -137,6 +137,7 @@ impl Place {
 /// Checks `outputs` against `inputs` and each other before a run starts. `force` allows an
 /// existing signed unit file to be replaced.
 pub fn check(inputs: &[Input], outputs: &[Output], force: bool) -> Result<(), OutputError> {
+    remove_leftovers(outputs);
     let input_places: Vec<Place> = inputs.iter().map(|i| Place::of(i.path)).collect();
     let output_places: Vec<Place> = outputs.iter().map(|o| Place::of(o.path)).collect();
     for (i, out) in outputs.iter().enumerate() {
@@ -174,6 +175,17 @@ pub fn check(inputs: &[Input], outputs: &[Output], force: bool) -> Result<(), Ou
         }
     }
     check_report_contents(outputs, &output_places)
+}
+
+/// Removes what killed writers of these outputs left: the next run does it, even one that
+/// is itself stopped before it writes.
+fn remove_leftovers(outputs: &[Output]) {
+    for out in outputs {
+        if let (Some(parent), Some(name)) = (out.path.parent(), out.path.file_name()) {
+            let parent = if parent.as_os_str().is_empty() { Path::new(".") } else { parent };
+            crate::atomic_file::remove_dead_temporaries(parent, name);
+        }
+    }
 }
 
 /// A file written inside a report folder would be swapped away with the folder.
