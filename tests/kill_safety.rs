@@ -14,7 +14,7 @@ mod common;
 
 use calib_targets::scene::Water;
 use std::collections::BTreeMap;
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
 

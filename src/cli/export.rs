@@ -61,7 +61,7 @@ pub fn run(args: ExportArgs) -> anyhow::Result<ExitCode> {
     for (path, archive) in paths.iter().zip([lens.write(), laser.write()]) {
         let archive = archive.context("cannot build the archive")?;
         outputs::say_if_replacing(path);
-        write_atomically(&path, &archive).with_context(|| format!("{}: cannot write", path.display()))?;
+        write_atomically(path, &archive).with_context(|| format!("{}: cannot write", path.display()))?;
         written.push(path.display().to_string());
     }
     if args.json {

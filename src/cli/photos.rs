@@ -55,10 +55,13 @@ pub fn check_is_photo_file(p: &Path) -> anyhow::Result<()> {
 /// one size, and hashing whole raws of a season would cost seconds; their headers differ.
 const QUICK_BYTES: u64 = 64 * 1024;
 
+/// A dropped photo and the earlier one whose content it repeats.
+type Repeat = (PathBuf, PathBuf);
+
 /// The photos with each content once, and each dropped duplicate with the photo it repeats.
 /// Files are compared by size, then by a hash of their two ends, and hashed whole only when
 /// those agree.
-fn dedupe(photos: &[PathBuf]) -> anyhow::Result<(Vec<PathBuf>, Vec<(PathBuf, PathBuf)>)> {
+fn dedupe(photos: &[PathBuf]) -> anyhow::Result<(Vec<PathBuf>, Vec<Repeat>)> {
     let sizes: Vec<u64> = photos.iter().map(|p| Ok(std::fs::metadata(p)?.len())).collect::<anyhow::Result<_>>()?;
     let quick: Vec<Option<(u64, [u8; 32])>> = photos
         .iter()
