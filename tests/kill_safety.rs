@@ -5,8 +5,8 @@
 //! its own (or its predecessor's, when it was killed before it started) and none survives
 //! the next complete run.
 //!
-//! Half the kills fall anywhere in the run, half in its writing (from just before the
-//! report's temporary folder appears to the end). `FSLCAL_KILL_ROUNDS` sets the number of
+//! Half the kills fall anywhere in the run, half in its writing (timed from the moment the
+//! report's temporary folder appears, to just after the run's end). `FSLCAL_KILL_ROUNDS` sets the number of
 //! kills: 12 by default (about two minutes in CI); the closing note's figures are from
 //! `FSLCAL_KILL_ROUNDS=50`.
 
@@ -101,6 +101,13 @@ fn timeline(set: &common::SceneSet, out: &Path, report: &Path) -> (Duration, Dur
     (total, writing.unwrap_or(total.mul_f64(0.9)))
 }
 
+/// Waits until the run's report temporary folder appears (or the run ends).
+fn wait_for_writing(child: &mut std::process::Child, dir: &Path) {
+    while child.try_wait().unwrap().is_none() && !temporaries(dir).iter().any(|(n, _)| n.starts_with(".report.")) {
+        std::thread::sleep(Duration::from_millis(1));
+    }
+}
+
 #[test]
 fn a_killed_laser_run_leaves_old_or_new_outputs_whole() {
     let set = common::laser_set("kill-safety", 6, 31, Water::Clear, 1);
@@ -119,19 +126,22 @@ fn a_killed_laser_run_leaves_old_or_new_outputs_whole() {
 
     let n = rounds();
     let mut states: BTreeMap<(&str, &str), usize> = BTreeMap::new();
-    let (mut left_temporaries, mut previous_pid) = (0, 0);
+    let (mut left_temporaries, mut killed_writing, mut previous_pid) = (0, 0, 0);
     for i in 0..n {
         std::fs::write(&x, &old_x).unwrap();
         put_tree(&d, &old_d);
-        let at = if i % 2 == 0 {
-            total.mul_f64(uniform(i as u64))
-        } else {
-            let from = writing.saturating_sub(Duration::from_millis(50));
-            from + (total + Duration::from_millis(20)).saturating_sub(from).mul_f64(uniform(i as u64))
-        };
         let mut child = laser(&set, &x, &d, &[]).spawn().unwrap();
         let pid = child.id();
-        std::thread::sleep(at);
+        let at = if i % 2 == 0 {
+            std::thread::sleep(total.mul_f64(uniform(i as u64)));
+            "anywhere"
+        } else {
+            // Timed from the writing itself, not from a clock measured once: a loaded
+            // machine slows the run, and fixed moments would all fall before the writing.
+            wait_for_writing(&mut child, &dir);
+            std::thread::sleep((total - writing + Duration::from_millis(20)).mul_f64(uniform(i as u64)));
+            "writing"
+        };
         child.kill().unwrap(); // SIGKILL
         child.wait().unwrap();
         let xs = match std::fs::read(&x).unwrap() {
@@ -154,13 +164,17 @@ fn a_killed_laser_run_leaves_old_or_new_outputs_whole() {
             assert!(*p == pid || *p == previous_pid, "kill {i}: {name} is neither this run's nor the one before's");
         }
         left_temporaries += usize::from(!temps.is_empty());
+        killed_writing += usize::from(at == "writing" && (!temps.is_empty() || xs == "new" || ds == "new"));
         previous_pid = pid;
     }
+    // The kills aimed at the writing reached it (else the test would prove nothing).
+    assert!(killed_writing * 4 >= n / 2, "only {killed_writing} of {} kills fell in the writing", n / 2);
     // The next complete run removes every leftover.
     assert!(laser(&set, &x, &d, &[]).status().unwrap().success());
     assert_eq!(temporaries(&dir), vec![], "temporaries survived the next run");
     assert_eq!((std::fs::read(&x).unwrap(), tree(&d)), (new_x, new_d));
     eprintln!(
-        "{n} SIGKILLs of `laser --out X --report D`: (X, D) {states:?}; {left_temporaries} kills left temporaries, none after the next run"
+        "{n} SIGKILLs of `laser --out X --report D` ({killed_writing} of {} in its writing): (X, D) {states:?}; {left_temporaries} kills left temporaries, none after the next run",
+        n / 2
     );
 }

@@ -222,4 +222,50 @@ mod tests {
         judge_dot(&cal, &cov, at_2m, 48.0, 0.5, &mut out);
         assert_eq!(out.outcome(), CheckOutcome::Flagged);
     }
+
+    /// The sweep (53 of 300 photos at 800x600 were "ok" though their dot had no
+    /// distance): 300 seeded dots 48-77 px off the line's image, anywhere along it in the
+    /// frame. Every dot without a distance is not judged; every dot with one is judged.
+    #[test]
+    fn a_sweep_of_dots_off_the_line_never_calls_one_without_a_distance_ok() {
+        let cal = calibration();
+        let cov = Matrix4::from(cal.laser_covariance).transpose();
+        let (cam, laser) = (&cal.camera, &cal.laser);
+        let near = laser.pixel_at_depth(cam, 0.5).unwrap();
+        let along = (cam.project(&laser.dir()).unwrap() - near).normalize();
+        let across = Vec2::new(-along.y, along.x);
+        let mut state = 0x16_u64;
+        let mut uniform = || {
+            state = state.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+            (state >> 11) as f64 / (1u64 << 53) as f64
+        };
+        let (mut dots, mut no_distance, mut not_judged, mut judged) = (0, 0, 0, 0);
+        while dots < 300 {
+            let offset_px = 48.0 + 29.0 * uniform();
+            let side = if uniform() < 0.5 { -1.0 } else { 1.0 };
+            let pixel = near + along * (1000.0 * (2.0 * uniform() - 1.0)) + across * (side * offset_px);
+            if !cam.contains(pixel) {
+                continue;
+            }
+            dots += 1;
+            let mut out = PhotoCheck::default();
+            judge_dot(&cal, &cov, pixel, offset_px, 0.5, &mut out);
+            let has_distance = laser.fix_from_pixel(cam, pixel).is_some();
+            no_distance += usize::from(!has_distance);
+            match out.outcome() {
+                CheckOutcome::Skipped(_) => {
+                    assert!(!has_distance, "{pixel:?} has a distance yet was not judged");
+                    not_judged += 1;
+                }
+                judged_as => {
+                    assert!(has_distance, "{pixel:?} has no distance yet was judged {judged_as:?}");
+                    judged += 1;
+                }
+            }
+        }
+        eprintln!("300 dots 48-77 px off the line at 800x600: {no_distance} without a distance, {not_judged} not judged, {judged} judged");
+        // The sweep reaches the case it guards, and the rest are judged, not dropped.
+        assert!(no_distance >= 30 && judged >= 30, "{no_distance} without a distance, {judged} judged");
+        assert_eq!(not_judged, no_distance);
+    }
 }
