@@ -6,8 +6,8 @@ fn main() -> ExitCode {
     match fslcal::cli::run() {
         Ok(code) => code,
         Err(err) => {
-            // `{:#}` joins anyhow's context chain into the one line a diver reads.
-            eprintln!("fslcal: error: {err:#}");
+            // The context chain joined into the one line a diver reads, each cause once.
+            eprintln!("fslcal: error: {}", fslcal::cli::error_line(&err));
             ExitCode::FAILURE
         }
     }

@@ -5,7 +5,9 @@
 //! and its older metadata carries naive local times that must be placed in an IANA zone or
 //! at an offset before they mean an instant; `jiff` has both (its `Pieces` tell a naive
 //! time from a zoned one, `TimeZone::get` reads the system's tzdb), where the hand-written
-//! civil-date arithmetic this module used to hold had neither.
+//! civil-date arithmetic this module used to hold had neither. A copy of the tz database is
+//! built in (`tzdb-bundle-always`) and used only where the system has none, so a zone name
+//! means the same on a handheld without tzdata as on a laptop.
 
 use jiff::civil::Time;
 use jiff::fmt::temporal::Pieces;
@@ -182,5 +184,15 @@ mod tests {
         assert!(parse_zone("Mars/Olympus").is_err() && parse_zone("+25").is_err());
         assert_eq!(format_iso_offset(1_780_306_200), "2026-06-01T09:30:00+00:00");
         assert_eq!(parse_iso(&format_iso_offset(1_780_306_200)), Some(1_780_306_200));
+    }
+
+    #[test]
+    fn zone_names_work_without_a_system_tz_database() {
+        // What `TimeZone::get` falls back to on a handheld with no /usr/share/zoneinfo:
+        // the copy built in (jiff's `tzdb-bundle-always`).
+        let bundled = jiff::tz::TimeZoneDatabase::bundled();
+        let guam = bundled.get("Pacific/Guam").expect("the bundled tz database has Pacific/Guam");
+        let t = guam.to_timestamp(jiff::civil::date(2026, 6, 1).at(19, 30, 0, 0)).unwrap();
+        assert_eq!(t.as_second(), 1_780_306_200);
     }
 }

@@ -595,13 +595,16 @@ fn import_refuses_wrong_units_and_naive_times_and_says_what_it_changed() {
     let cm = laser_at("laser-cm.pkg", POSITION_M.map(|v| v * 100.0), axis());
     let err = refusal(&import(&cm, &["--timezone", "UTC"]).0);
     assert!(
-        err.contains("11.4") && err.contains("78-145 mm") && err.contains("centimetres") && err.contains("--force"),
+        err.contains("11.4")
+            && err.contains("78-145 mm")
+            && err.contains("centimetres")
+            && err.contains("--outside-baseline"),
         "{err}"
     );
     let mm = laser_at("laser-mm.pkg", POSITION_M.map(|v| v * 1000.0), axis());
     assert!(refusal(&import(&mm, &["--timezone", "UTC"]).0).contains("millimetres"));
-    let (o, _) = import(&cm, &["--timezone", "UTC", "--force"]);
-    assert!(String::from_utf8_lossy(&ok(&o).stderr).contains("signed anyway (--force)"));
+    let (o, _) = import(&cm, &["--timezone", "UTC", "--outside-baseline"]);
+    assert!(String::from_utf8_lossy(&ok(&o).stderr).contains("signed anyway (--outside-baseline)"));
 
     // A non-unit axis pointing backwards is turned round and normalised, and it is said.
     let a = axis();

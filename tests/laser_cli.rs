@@ -176,3 +176,43 @@ fn bad_inputs_give_one_line_errors() {
         assert!(!err.contains("panicked"), "{err}");
     }
 }
+
+#[test]
+fn duplicate_photos_are_used_once_and_do_not_shrink_the_sigma() {
+    let set = set();
+    let once = fslcal(
+        &{
+            let mut a = base_args(set);
+            a.push("--json".into());
+            a
+        }
+        .iter()
+        .map(String::as_str)
+        .collect::<Vec<_>>(),
+    );
+    assert!(once.status.success(), "{}", String::from_utf8_lossy(&once.stderr));
+    // Each photo three times: as given, a copy, and a symlink to it.
+    let dups = set.path().join("dups");
+    let _ = std::fs::remove_dir_all(&dups);
+    std::fs::create_dir_all(&dups).unwrap();
+    let mut args = base_args(set);
+    for (i, p) in set.photos.iter().enumerate() {
+        let copy = dups.join(format!("copy_{i:02}.jpg"));
+        std::fs::copy(p, &copy).unwrap();
+        let link = dups.join(format!("link_{i:02}.jpg"));
+        std::os::unix::fs::symlink(p, &link).unwrap();
+        args.extend([copy.display().to_string(), link.display().to_string()]);
+    }
+    args.push("--json".into());
+    let thrice = fslcal(&args.iter().map(String::as_str).collect::<Vec<_>>());
+    assert!(thrice.status.success(), "{}", String::from_utf8_lossy(&thrice.stderr));
+    let err = String::from_utf8_lossy(&thrice.stderr);
+    assert!(err.contains("copy_00.jpg is the same photo as") && err.contains("used once"), "{err}");
+    assert!(err.contains("7 more photos repeat earlier ones; 6 distinct photos used of 18 given"), "{err}");
+    let (a, b): (serde_json::Value, serde_json::Value) =
+        (serde_json::from_slice(&once.stdout).unwrap(), serde_json::from_slice(&thrice.stdout).unwrap());
+    assert_eq!(b["photos"].as_array().unwrap().len(), 6);
+    // The same fit: the same covariance and predicted sigma, not a third of it.
+    assert_eq!(a["laser"], b["laser"]);
+    assert_eq!(a["predicted_distance_sigma_m"], b["predicted_distance_sigma_m"]);
+}

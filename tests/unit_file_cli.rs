@@ -157,8 +157,10 @@ fn imported_file_inspects_and_verifies_and_every_failure_is_named() {
     newer[4] = 9;
     case("newer.fslcal", &newer, "newer fslcal (format version 9");
 
-    // Inspect still shows a tampered file, and says so.
-    let v = json(&fslcal(&["inspect", s(&d.join("tampered.fslcal")), "--json"]));
+    // Inspect still shows a tampered file, says so, and exits 1.
+    let o = fslcal(&["inspect", s(&d.join("tampered.fslcal")), "--json"]);
+    assert_eq!(o.status.code(), Some(1));
+    let v: Value = serde_json::from_slice(&o.stdout).expect("the contents, as found");
     assert_eq!(v["signature"], "invalid");
     // Measuring commands refuse it through the shared --cal loader.
     let err = fslcal::calibration::load(&d.join("tampered.fslcal")).unwrap_err().to_string();
@@ -268,9 +270,10 @@ fn registry_files_lists_and_diffs() {
     let err = one_line_error(&fslcal(&["units", "--registry", reg, "add", s(&foreign)]), "foreign.fslcal");
     assert!(err.contains("unknown key"), "{err}");
     assert!(!registry.join("FSL-01").exists());
-    // A validation report.
+    // A validation report of the new calibration.
     let report = d.join("validate.json");
-    std::fs::write(&report, r#"{"photos": [], "pass": true}"#).unwrap();
+    let sha = fslcal::units::registry::sha256_hex(&std::fs::read(&new).unwrap());
+    std::fs::write(&report, format!(r#"{{"photos": [], "pass": true, "calibration_sha256": "{sha}"}}"#)).unwrap();
     let v = json(&fslcal(&["units", "--registry", reg, "add", s(&report), "--unit", "FSL-07", "--json"]));
     assert_eq!(v["pass"], true);
 

@@ -182,7 +182,8 @@ pub fn live_lines(fw: &Firmware, cal: &UnitCalibration) -> (Line, [Line; 3]) {
     };
     let sigma = match f.sigma_m {
         Some(s) => text!(24, "±{:.0} mm (1σ)", 1e3 * s),
-        None => line("± ? (1σ)"),
+        // Unknown (an imported calibration records no covariance), never ±0.
+        None => line("± unknown (1σ)"),
     };
     let on_line = text!(24, "off line {:.1} px", f.miss_px);
     (text!(24, "{:.3} m", f.distance_m), [sigma, px, on_line])

@@ -152,6 +152,34 @@ fn validation_passes_within_three_percent() {
     assert_eq!(fw.screen(), Screen::Validation);
 }
 
+/// The example calibration as an import of the lab's files writes it: no covariance (all
+/// zero, which means unknown).
+fn imported_file() -> Vec<u8> {
+    let mut c = unit_file::example();
+    c.laser_covariance = [[0.0; 4]; 4];
+    c.fit = None;
+    c.method = unit_file::FitMethod::Imported;
+    c.provenance = unit_file::Provenance::LabPkg;
+    sign(&c, &EXAMPLE_SECRET_KEY)
+}
+
+#[test]
+fn an_imported_calibrations_unknown_sigma_reads_unknown_never_zero() {
+    let mut fw = loaded(&imported_file());
+    let Calibration::Valid(cal) = *fw.calibration() else { panic!("the imported file loads") };
+    fw.handle(Event::Press(Button::Next));
+    fw.handle(dot_at_depth(2.5));
+    let fix = fw.reading().unwrap().fix.unwrap();
+    assert!((fix.distance_m - 2.5).abs() < 1e-6 && fix.sigma_m.is_none(), "{fix:?}");
+    let (_, lines) = screens::live_lines(&fw, &cal);
+    assert_eq!(lines[0].as_str(), "± unknown (1σ)");
+    // The same dot through the signed example (a real covariance) has a figure.
+    let mut known = loaded(&good_file());
+    known.handle(Event::Press(Button::Next));
+    known.handle(dot_at_depth(2.5));
+    assert!(known.reading().unwrap().fix.unwrap().sigma_m.is_some_and(|s| s > 0.0));
+}
+
 /// The firmware states each golden screen is drawn from.
 fn golden_states() -> Vec<(&'static str, Box<Firmware>)> {
     let after = |file: &[u8], events: &[Event]| {
@@ -181,6 +209,7 @@ fn golden_states() -> Vec<(&'static str, Box<Firmware>)> {
         ("live-waiting", after(&good, &[next])),
         ("live-2.5m", after(&good, &[next, dot_at_depth(2.5)])),
         ("live-outside-image", after(&good, &[next, Event::Dot { u_px: 4100.0, v_px: 10.0 }])),
+        ("live-imported-2.5m", after(&imported_file(), &[next, dot_at_depth(2.5)])),
         ("validation-none", after(&good, &[next, next])),
         ("validation-pass", after(&good, &[Event::Validation { measured_mm: 404.2, true_mm: 400.0 }])),
         ("validation-fail", after(&good, &[Event::Validation { measured_mm: 386.5, true_mm: 400.0 }])),

@@ -87,10 +87,16 @@ pub fn camera_json(c: &CameraModel) -> serde_json::Value {
 pub fn load(path: &Path) -> Result<Calibration, CalibrationError> {
     let name = path.display().to_string();
     let bytes = std::fs::read(path).map_err(|cause| CalibrationError::Io { path: name.clone(), cause })?;
+    from_bytes(&bytes, path)
+}
+
+/// The calibration in `bytes`, read from `path`: for a command that also records which
+/// file it used (its hash), from the very bytes it used.
+pub fn from_bytes(bytes: &[u8], path: &Path) -> Result<Calibration, CalibrationError> {
     if bytes.starts_with(&unit_file::MAGIC) {
-        parse_unit_file(&bytes, path)
+        parse_unit_file(bytes, path)
     } else {
-        parse_laser_json(&bytes, path)
+        parse_laser_json(bytes, path)
     }
 }
 

@@ -118,6 +118,9 @@ pub enum CheckSkip {
     Unreadable { detail: String },
     /// No clear dot along the calibrated laser's image.
     NoDot(DotOnLineError),
+    /// A dot was found this far from the line's image, but the calibration gives it no
+    /// distance (its ray passes the beam behind the camera), so it cannot be judged.
+    NoDistance { offset_px: f64 },
 }
 
 impl fmt::Display for CheckSkip {
@@ -125,6 +128,10 @@ impl fmt::Display for CheckSkip {
         match self {
             CheckSkip::Unreadable { detail } => f.write_str(detail),
             CheckSkip::NoDot(e) => e.fmt(f),
+            CheckSkip::NoDistance { offset_px } => write!(
+                f,
+                "the dot found lies {offset_px:.1} px from the calibrated line, where the calibration gives no distance: it cannot be judged (a reflection, or the laser moved far)"
+            ),
         }
     }
 }

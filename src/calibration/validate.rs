@@ -54,7 +54,7 @@ pub struct Validation {
 
 #[derive(Debug, thiserror::Error)]
 pub enum ValidationError {
-    #[error("{0}")]
+    #[error(transparent)]
     Photo(#[from] LaserError),
     #[error("the slate has no length named `{name}` (it has: {have}); see docs/slate.md")]
     NoSuchLength { name: String, have: String },
@@ -62,8 +62,10 @@ pub enum ValidationError {
     NoLengths,
     #[error("a checkerboard has one known length (the first row's outermost inner corners); --length does not apply")]
     LengthOnCheckerboard,
-    #[error("no photo could be measured; see the reasons above")]
-    NothingMeasured,
+    /// Nothing to judge; the run, with every photo's line saying why, is kept for the
+    /// summary, the JSON and the report.
+    #[error("no photo could be measured (each photo's reason is listed)")]
+    NothingMeasured(Box<Validation>),
 }
 
 /// The length a run measures: its name and end points in the target frame, metres.
@@ -245,7 +247,16 @@ fn judge(
 ) -> Result<Validation, ValidationError> {
     let measured: Vec<(f64, f64)> = results.iter().filter_map(|p| p.distance_m.zip(p.error_pct)).collect();
     if measured.is_empty() {
-        return Err(ValidationError::NothingMeasured);
+        return Err(ValidationError::NothingMeasured(Box::new(Validation {
+            true_mm: length.true_m() * 1e3,
+            length_name: length.name,
+            rule: job.rule,
+            tolerance_pct: job.tolerance_pct,
+            photos: results,
+            slope_pct_per_m: None,
+            trend_fails: false,
+            pass: false,
+        })));
     }
     let slope = slope(&measured);
     // A trend fails when it is real (over 3 sigma) and large enough to matter: across the

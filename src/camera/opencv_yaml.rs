@@ -11,8 +11,9 @@ use std::path::Path;
 
 #[derive(Debug, thiserror::Error)]
 pub enum CameraFileError {
-    #[error("{path}: cannot read: {source}")]
-    Io { path: String, source: std::io::Error },
+    /// The cause is in the message, not a `source`, or `{:#}` would say it twice.
+    #[error("{path}: cannot read: {cause}")]
+    Io { path: String, cause: std::io::Error },
     #[error("{path}: not an OpenCV camera file (no `%YAML` header); expected the YAML written by OpenCV's calibration sample or `fslcal camera --out`")]
     NotYaml { path: String },
     #[error("{path}: missing `{key}`; a camera file needs image_width, image_height, camera_matrix and distortion_coefficients")]
@@ -151,7 +152,7 @@ pub fn parse(text: &str, path: &str) -> Result<(CameraModel, CameraFileExtras), 
 /// Reads an OpenCV camera file.
 pub fn read(path: &Path) -> Result<(CameraModel, CameraFileExtras), CameraFileError> {
     let name = path.display().to_string();
-    let bytes = std::fs::read(path).map_err(|source| CameraFileError::Io { path: name.clone(), source })?;
+    let bytes = std::fs::read(path).map_err(|cause| CameraFileError::Io { path: name.clone(), cause })?;
     let text = String::from_utf8_lossy(&bytes);
     parse(&text, &name)
 }

@@ -1,5 +1,6 @@
 //! `fslcal camera`: the intrinsics a diver calibrates once per unit, under water.
 
+use super::outputs::{self, Input, Output};
 use super::progress;
 use crate::atomic_file::write_atomically;
 use crate::camera::calibrate::{calibrate, CameraCalibration, CameraJob, CameraPhotoStatus};
@@ -8,7 +9,7 @@ use crate::camera::residuals::FRAME_CORNER_SHARE;
 use crate::documents::{self, camera::CameraDocument, XOfN};
 use crate::photo::identity::photos_exif;
 use crate::report::{self, camera::CameraReport};
-use anyhow::{bail, Context};
+use anyhow::Context;
 use calib_targets::Checkerboard;
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
@@ -40,21 +41,22 @@ pub struct CameraArgs {
     #[arg(long, value_name = "DIR")]
     report: Option<PathBuf>,
 
-    /// Calibration photos (JPEG or PNG), all from the same camera mode.
+    /// Calibration photos (JPEG, PNG or Olympus ORF raw), all from the same camera mode.
     #[arg(required = true, value_name = "PHOTOS")]
     photos: Vec<PathBuf>,
 }
 
 fn parse_board(s: &str) -> Result<Checkerboard, String> {
-    s.parse::<Checkerboard>().map_err(|e| e.to_string())
+    crate::laser::target::parse_checkerboard(s)
 }
 
 pub fn run(args: CameraArgs) -> anyhow::Result<ExitCode> {
-    for p in &args.photos {
-        if !p.is_file() {
-            bail!("{}: no such photo", p.display());
-        }
-    }
+    let inputs: Vec<Input> = args.photos.iter().map(|p| Input::new("photo", p)).collect();
+    let mut outs = Vec::new();
+    outs.extend(args.out.as_deref().map(|p| Output::file("--out", p)));
+    outs.extend(args.report.as_deref().map(|p| Output::report("--report", p)));
+    outputs::check(&inputs, &outs, false)?;
+    let args = CameraArgs { photos: super::photos::prepare(&args.photos)?, ..args };
     let job = CameraJob::new(args.board);
     let bar = progress::bar(args.photos.len(), "photos", args.json);
     let result = calibrate(&job, &args.photos, &|| bar.inc(1));
@@ -66,8 +68,8 @@ pub fn run(args: CameraArgs) -> anyhow::Result<ExitCode> {
         print!("{}", summary(&args, &cal));
     }
     if let Some(dir) = &args.report {
-        let index = report::camera::write(dir, &CameraReport { board: &args.board, calibration: &cal })
-            .with_context(|| format!("{}: cannot write the report", dir.display()))?;
+        outputs::say_if_replacing(dir);
+        let index = report::camera::write(dir, &CameraReport { board: &args.board, calibration: &cal })?;
         if !args.json {
             eprintln!("report: {}", index.display());
         }
@@ -78,6 +80,7 @@ pub fn run(args: CameraArgs) -> anyhow::Result<ExitCode> {
         let (_, camera_serial, focal_length_mm) = photos_exif(&args.photos);
         let extras = CameraFileExtras { avg_reprojection_error: Some(cal.rms_px), camera_serial, focal_length_mm };
         let yaml = opencv_yaml::to_yaml(&cal.camera, &extras);
+        outputs::say_if_replacing(out);
         write_atomically(out, yaml.as_bytes())
             .with_context(|| format!("{}: cannot write the camera file", out.display()))?;
         if !args.json {

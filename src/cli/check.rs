@@ -1,13 +1,14 @@
 //! `fslcal check`: has the laser moved since it was calibrated?
 
 use super::body_check::BodyCheckArgs;
+use super::outputs::{self, Input, Output};
 use super::progress;
 use crate::calibration;
-use crate::calibration::drift::{check, CheckOutcome, DriftCheck, FLAG_SIGMAS};
-use crate::documents::{self, check::CheckDocument};
+use crate::calibration::drift::{check, CheckError, CheckOutcome, DriftCheck, FLAG_SIGMAS};
+use crate::documents::{self, check::CheckDocument, refused::RefusedDocument};
 use crate::photo::identity::ExpectedCamera;
 use crate::report::{self, check::CheckReport};
-use anyhow::{bail, Context};
+use anyhow::bail;
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
@@ -43,28 +44,40 @@ pub struct CheckArgs {
 }
 
 pub fn run(args: CheckArgs) -> anyhow::Result<ExitCode> {
+    let mut inputs = vec![Input::new("--cal", &args.cal)];
+    inputs.extend(args.photos.iter().map(|p| Input::new("photo", p)));
+    let outs: Vec<Output> = args.report.as_deref().map(|p| Output::report("--report", p)).into_iter().collect();
+    outputs::check(&inputs, &outs, false)?;
     let cal = calibration::load(&args.cal)?;
-    for p in &args.photos {
-        if !p.is_file() {
-            bail!("{}: no such photo", p.display());
-        }
-    }
+    let args = CheckArgs { photos: super::photos::prepare(&args.photos)?, ..args };
     args.body.check(&ExpectedCamera::from(&cal), &args.photos)?;
     let bar = progress::bar(args.photos.len(), "photos", args.json);
     let result = check(&cal, &args.photos, &|| bar.inc(1));
     bar.finish_and_clear();
-    let r = result.context("drift check")?;
-    if args.json {
-        println!("{}", documents::to_text(&CheckDocument::from(&r))?);
-    } else {
-        print!("{}", summary(&r));
+    // No judgeable dot is still a run that read photos: each says why, then the error.
+    let (r, refused) = match result {
+        Ok(r) => (r, None),
+        Err(e @ CheckError::NoDots { .. }) => {
+            let message = e.to_string();
+            let CheckError::NoDots { photos } = e else { unreachable!() };
+            (DriftCheck { photos, drifted: false, implied_direction_change_deg: None }, Some(message))
+        }
+        Err(e) => return Err(anyhow::Error::new(e).context("drift check")),
+    };
+    match (&refused, args.json) {
+        (Some(error), true) => println!("{}", documents::to_text(&RefusedDocument::new(error, r.photos.clone()))?),
+        (None, true) => println!("{}", documents::to_text(&CheckDocument::from(&r))?),
+        (_, false) => print!("{}", summary(&r, fslcal_core::covariance_known(&cal.laser_covariance))),
     }
     if let Some(dir) = &args.report {
-        let index = report::check::write(dir, &CheckReport::of(&r, &cal))
-            .with_context(|| format!("{}: cannot write the report", dir.display()))?;
+        outputs::say_if_replacing(dir);
+        let index = report::check::write(dir, &CheckReport::of(&r, &cal))?;
         if !args.json {
             eprintln!("report: {}", index.display());
         }
+    }
+    if let Some(error) = refused {
+        bail!("drift check: {error}");
     }
     if r.drifted {
         bail!(
@@ -80,9 +93,12 @@ fn name_of(file: &str) -> String {
     Path::new(file).file_name().map_or_else(|| file.to_string(), |n| n.to_string_lossy().into_owned())
 }
 
-fn summary(r: &DriftCheck) -> String {
+fn summary(r: &DriftCheck, covariance_known: bool) -> String {
     let width = r.photos.iter().map(|p| name_of(&p.file).len()).max().unwrap_or(4).max(4);
     let mut s = format!("fslcal check: {} photos\n\n", r.photos.len());
+    if !covariance_known {
+        s += "the calibration's covariance is unknown (an imported calibration records none): the flag threshold counts the dot's localisation only\n\n";
+    }
     s += &format!(
         "  {:width$}  {:>19}  {:>7}  {:>9}  {:>8}  {}\n",
         "file", "dot px", "dist m", "offset px", "sigma px", "status"
@@ -109,6 +125,10 @@ fn summary(r: &DriftCheck) -> String {
     if let Some(d) = r.implied_direction_change_deg {
         s += &format!("implied change of the laser's direction: {d:.3} deg (median)\n");
     }
-    s += if r.drifted { "\nverdict: DRIFTED\n" } else { "\nverdict: no drift seen\n" };
+    s += match (with_dot, r.drifted) {
+        (0, _) => "\nverdict: NOT JUDGED (no photo with a dot the calibration can judge; reasons above)\n",
+        (_, true) => "\nverdict: DRIFTED\n",
+        (_, false) => "\nverdict: no drift seen\n",
+    };
     s
 }

@@ -1,5 +1,6 @@
 //! `fslcal develop`: raw photos to PNGs for people and other tools, a season at a time.
 
+use super::outputs::{self, Input, Output};
 use super::progress;
 use crate::atomic_file::write_atomically;
 use crate::photo::raw::develop::{developed_rgb8, for_each_row, write_row, GreyWorld, Order, ToneCurve};
@@ -25,8 +26,8 @@ pub struct DevelopArgs {
     #[arg(long = "16bit")]
     sixteen_bit: bool,
 
-    /// Photos developed at once (default: one per core).
-    #[arg(long, value_name = "N")]
+    /// Photos developed at once, 1 to 64 (default: one per core; never more than the raws).
+    #[arg(long, value_name = "N", value_parser = super::parse::jobs)]
     jobs: Option<usize>,
 
     /// Print one JSON object instead of the summary.
@@ -49,8 +50,7 @@ pub fn develop_one(raw: &Path, out_dir: &Path, sixteen_bit: bool) -> anyhow::Res
     let frame = RawFrame::read(raw)?;
     let balance = GreyWorld::of(&frame);
     let (w, h) = (frame.width as u32, frame.height as u32);
-    let stem = raw.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_else(|| "photo".into());
-    let out = out_dir.join(format!("{stem}.png"));
+    let out = png_path(raw, out_dir);
     let mut png = Vec::new();
     {
         let encoder = image::codecs::png::PngEncoder::new_with_quality(
@@ -83,8 +83,15 @@ pub fn develop_one(raw: &Path, out_dir: &Path, sixteen_bit: bool) -> anyhow::Res
         }
         .with_context(|| format!("{}: cannot encode the PNG", raw.display()))?;
     }
+    outputs::say_if_replacing(&out);
     write_atomically(&out, &png).with_context(|| format!("{}: cannot write", out.display()))?;
     Ok((out, balance.gains))
+}
+
+/// Where the PNG of `raw` goes in `out_dir`.
+fn png_path(raw: &Path, out_dir: &Path) -> PathBuf {
+    let stem = raw.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_else(|| "photo".into());
+    out_dir.join(format!("{stem}.png"))
 }
 
 pub fn run(args: DevelopArgs) -> anyhow::Result<ExitCode> {
@@ -96,7 +103,13 @@ pub fn run(args: DevelopArgs) -> anyhow::Result<ExitCode> {
             bail!("{}: two raws share this name; their PNGs would overwrite each other", r.display());
         }
     }
-    let jobs = args.jobs.unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get())).max(1);
+    let pngs: Vec<PathBuf> = args.raws.iter().map(|r| png_path(r, &args.out)).collect();
+    let inputs: Vec<Input> = args.raws.iter().map(|r| Input::new("raw", r)).collect();
+    let outs: Vec<Output> = pngs.iter().map(|p| Output::file("--out", p)).collect();
+    outputs::check(&inputs, &outs, false)?;
+    let jobs = args.jobs.unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get()));
+    // A thread per photo at most: more would only wait (and each is a stack).
+    let jobs = jobs.clamp(1, args.raws.len().max(1));
     // A pool of `jobs` threads, each developing one photo at a time: memory is bounded by
     // the pool, not by the batch.
     let pool = rayon::ThreadPoolBuilder::new().num_threads(jobs).build().context("cannot start worker threads")?;
@@ -110,7 +123,7 @@ pub fn run(args: DevelopArgs) -> anyhow::Result<ExitCode> {
             .map(|raw| {
                 let r = develop_one(raw, &args.out, args.sixteen_bit).map(|(out, gains)| Developed { out, gains });
                 if let Err(e) = &r {
-                    bar.suspend(|| eprintln!("fslcal: skipped: {e:#}"));
+                    bar.suspend(|| eprintln!("fslcal: skipped: {}", super::error_line(e)));
                 }
                 bar.inc(1);
                 r
@@ -119,7 +132,7 @@ pub fn run(args: DevelopArgs) -> anyhow::Result<ExitCode> {
     });
     bar.finish_and_clear();
     let elapsed = started.elapsed().as_secs_f64();
-    let failed: Vec<String> = results.iter().filter_map(|r| r.as_ref().err().map(|e| format!("{e:#}"))).collect();
+    let failed: Vec<String> = results.iter().filter_map(|r| r.as_ref().err().map(super::error_line)).collect();
     let done = results.len() - failed.len();
     if args.json {
         let photos: Vec<_> = args
@@ -128,7 +141,7 @@ pub fn run(args: DevelopArgs) -> anyhow::Result<ExitCode> {
             .zip(&results)
             .map(|(raw, r)| match r {
                 Ok(d) => json!({"raw": raw.display().to_string(), "png": d.out.display().to_string(), "grey_world_gains": d.gains}),
-                Err(e) => json!({"raw": raw.display().to_string(), "error": format!("{e:#}")}),
+                Err(e) => json!({"raw": raw.display().to_string(), "error": super::error_line(e)}),
             })
             .collect();
         println!(

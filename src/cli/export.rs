@@ -3,6 +3,7 @@
 
 use super::inspect;
 use super::lab_files::{self, LAB_FRAME};
+use super::outputs::{self, Input, Output};
 use crate::atomic_file::write_atomically;
 use crate::photo::frame::Frame;
 use crate::units::lab_api::{CameraIntrinsics, LaserExtrinsics};
@@ -125,12 +126,15 @@ pub fn run(args: ExportArgs) -> anyhow::Result<ExitCode> {
     let c = &file.contents;
     // The unit names the output files: a crafted `../` must not write elsewhere.
     let unit = signed_file::unit_id(c.unit)?;
-    let outputs = files(&args, &unit, c)?;
+    let named = files(&args, &unit, c)?;
+    let paths: Vec<PathBuf> = named.iter().map(|(name, _)| args.out.join(name)).collect();
+    let outs: Vec<Output> = paths.iter().map(|p| Output::file("--out", p)).collect();
+    outputs::check(&[Input::new("FILE", &args.file)], &outs, false)?;
     std::fs::create_dir_all(&args.out).with_context(|| format!("{}: cannot create the folder", args.out.display()))?;
     let mut written = Vec::new();
-    for (name, contents) in outputs {
-        let path = args.out.join(name);
-        write_atomically(&path, &contents).with_context(|| format!("{}: cannot write", path.display()))?;
+    for (path, (_, contents)) in paths.iter().zip(named) {
+        outputs::say_if_replacing(path);
+        write_atomically(path, &contents).with_context(|| format!("{}: cannot write", path.display()))?;
         written.push(path.display().to_string());
     }
     let frame = Frame::of_camera(&c.camera).map_to(&args.lab_frame)?;

@@ -2,6 +2,7 @@
 //! as `.pkg` archives or as the bodies of its API (`CameraIntrinsics`, `LaserExtrinsics`).
 
 use super::lab_files::{self, LabLaser, LabLens, LAB_FRAME};
+use super::outputs::{self, Input, Output, OutputKind};
 use super::signing::SigningArgs;
 use crate::photo::frame::Frame;
 use crate::units::signed_file;
@@ -51,12 +52,13 @@ pub struct ImportArgs {
 
     /// Plausible camera-to-laser baseline for the rig, millimetres (as `fslcal laser`): a
     /// laser position outside it (centimetres or millimetres where metres belong) is refused.
-    #[arg(long, value_name = "MIN,MAX", default_value = "78,145", value_parser = lab_files::parse_range_mm)]
+    #[arg(long, value_name = "MIN,MAX", default_value = "78,145", value_parser = super::parse::range_mm)]
     baseline_range_mm: (f64, f64),
 
-    /// Sign a rig whose baseline lies outside --baseline-range-mm.
+    /// Sign a rig whose baseline lies outside --baseline-range-mm (`--force` is for
+    /// replacing an existing signed file).
     #[arg(long)]
-    force: bool,
+    outside_baseline: bool,
 
     /// The unit file to write.
     #[arg(long, value_name = "FILE.fslcal")]
@@ -87,11 +89,15 @@ fn developed(lens: &LabLens, frame: Frame, path: &Path) -> anyhow::Result<(Camer
 }
 
 pub fn run(args: ImportArgs) -> anyhow::Result<ExitCode> {
+    let mut inputs = vec![Input::new("LENS.pkg", &args.lens), Input::new("LASER.pkg", &args.laser)];
+    inputs.extend(args.signing.key.as_deref().map(|k| Input::new("--key", k)));
+    let out = Output { option: "--out", path: &args.out, kind: OutputKind::Signed };
+    outputs::check(&inputs, &[out], args.signing.force)?;
     let (unit, key) = args.signing.unit_and_key(&args.out)?;
     let (lens, lens_path, laser, laser_path) = read_pair(&args)?;
     let (camera, frame_note) = developed(&lens, args.lens_frame, lens_path)?;
     let range_m = (args.baseline_range_mm.0, args.baseline_range_mm.1);
-    let (line, notes) = lab_files::laser_line(&laser, laser_path, range_m, args.force)?;
+    let (line, notes) = lab_files::laser_line(&laser, laser_path, range_m, args.outside_baseline)?;
     for n in &notes {
         eprintln!("warning: {n}");
     }
@@ -99,6 +105,7 @@ pub fn run(args: ImportArgs) -> anyhow::Result<ExitCode> {
     let serial = args.signing.camera_serial.clone().or_else(|| lens.serial.clone());
     let identity = fslcal_core::unit_file::CameraIdentity { serial: serial.as_deref(), ..args.signing.identity() };
     let contents = unit_contents(&unit, identity, camera, line, made_utc_s, args.signing.water_depth_m, &laser);
+    outputs::say_if_replacing(&args.out);
     let size = signed_file::sign_to_file(&contents, &key, &args.out)?;
     let provenance = laser.format.provenance().name();
     if args.json {

@@ -4,6 +4,7 @@ use crate::calibration::camera_json;
 use crate::units::keys::hex;
 use crate::units::signed_file::{self, UnitFileError};
 use crate::utc_time;
+use fslcal_core::covariance_known;
 use fslcal_core::unit_file::{Provenance, SignedUnitFile};
 use serde_json::json;
 use std::path::{Path, PathBuf};
@@ -12,7 +13,8 @@ use std::process::ExitCode;
 /// Show what a signed unit file (.fslcal) holds and whether its signature matches.
 ///
 /// Whether the signer is one you trust is `fslcal verify`'s question; this only says whether
-/// the file is intact as its signer made it.
+/// the file is intact as its signer made it. A file whose signature does not match is still
+/// shown (to see what was changed), and the exit status is 1.
 #[derive(clap::Args, Debug)]
 pub struct InspectArgs {
     /// The unit file.
@@ -49,7 +51,9 @@ pub(super) fn unit_file_json(path: &Path, size_bytes: usize, f: &SignedUnitFile<
             "direction": l.direction,
             "baseline_m": l.baseline_m(),
             "angle_to_optical_axis_deg": l.angle_to_optical_axis().to_degrees(),
-            "covariance": c.laser_covariance,
+            // null when unknown (all zero: imported without the fit's figures), never zeros
+            // a reader would take for certainty.
+            "covariance": covariance_known(&c.laser_covariance).then_some(c.laser_covariance),
             "covariance_parameters": ["origin_x_m", "origin_y_m", "direction_x_over_z", "direction_y_over_z"],
         },
         "made_utc": utc_time::format_iso(c.made_utc_s),
@@ -92,18 +96,26 @@ fn summary(path: &Path, size: usize, f: &SignedUnitFile<'_>) -> String {
         cam.distortion.to_opencv()
     );
     let cov = &c.laser_covariance;
+    let (origin_sigma, direction_sigma) = if covariance_known(cov) {
+        (
+            format!(" ±({:.2}, {:.2}) mm", cov[0][0].sqrt() * 1e3, cov[1][1].sqrt() * 1e3),
+            format!(" ±{:.4} deg", (cov[2][2] + cov[3][3]).sqrt().atan().to_degrees()),
+        )
+    } else {
+        (" ± unknown".to_string(), " ± unknown".to_string())
+    };
     s += &format!(
-        "laser     origin ({:.2}, {:.2}, 0) mm ±({:.2}, {:.2}) mm, direction ({:.5}, {:.5}, {:.5}) ±{:.4} deg, {:.3} deg off axis\n",
+        "laser     origin ({:.2}, {:.2}, 0) mm{origin_sigma}, direction ({:.5}, {:.5}, {:.5}){direction_sigma}, {:.3} deg off axis\n",
         l.origin_m[0] * 1e3,
         l.origin_m[1] * 1e3,
-        cov[0][0].sqrt() * 1e3,
-        cov[1][1].sqrt() * 1e3,
         l.direction[0],
         l.direction[1],
         l.direction[2],
-        (cov[2][2] + cov[3][3]).sqrt().atan().to_degrees(),
         l.angle_to_optical_axis().to_degrees()
     );
+    if !covariance_known(cov) {
+        s += "          covariance unknown (the file records none, as an import of the lab's files): no 1-sigma can be given\n";
+    }
     s += &format!(
         "made      {}{}, target {}, method {}\n",
         utc_time::format_iso(c.made_utc_s),
@@ -154,5 +166,7 @@ pub fn run(args: InspectArgs) -> anyhow::Result<ExitCode> {
     } else {
         print!("{}", summary(&args.file, bytes.len(), &file));
     }
+    // Shown, but not passed: a script that inspects before use must not take it as sound.
+    file.check_signature().map_err(UnitFileError::at(&args.file))?;
     Ok(ExitCode::SUCCESS)
 }

@@ -18,26 +18,7 @@ pub const LAB_FRAME: &str = "4040x3016";
 
 /// `WxH` in pixels, as a frame.
 pub fn parse_frame(s: &str) -> Result<Frame, String> {
-    let bad = || format!("expected WIDTHxHEIGHT in pixels, e.g. {LAB_FRAME}, got `{s}`");
-    let (w, h) = s.split_once(['x', 'X']).ok_or_else(bad)?;
-    match (w.trim().parse::<u32>(), h.trim().parse::<u32>()) {
-        (Ok(w @ 1..=100_000), Ok(h @ 1..=100_000)) => Ok(Frame::of_size(w, h)),
-        _ => Err(bad()),
-    }
-}
-
-/// `MIN,MAX` in millimetres (the rig's plausible baseline), as metres; shared by `laser`
-/// and `import`, which apply the same gate.
-pub fn parse_range_mm(s: &str) -> Result<(f64, f64), String> {
-    let (a, b) = s.split_once(',').ok_or("expected MIN,MAX in millimetres, e.g. 78,145")?;
-    let (a, b): (f64, f64) = (
-        a.trim().parse().map_err(|_| format!("`{a}` is not a number"))?,
-        b.trim().parse().map_err(|_| format!("`{b}` is not a number"))?,
-    );
-    if !(a > 0.0 && b > a) {
-        return Err("expected 0 < MIN < MAX".into());
-    }
-    Ok((a / 1e3, b / 1e3))
+    super::parse::image_size(s).map(|(w, h)| Frame::of_size(w, h))
 }
 
 /// Which of the lab's formats a file was.
@@ -218,9 +199,9 @@ pub fn laser_line(
             unit_hint(baseline_m, baseline_range_m)
         );
         if !force {
-            bail!("{why}; pass --force to sign a rig outside them (--baseline-range-mm sets the range)");
+            bail!("{why}; pass --outside-baseline to sign a rig outside them (--baseline-range-mm sets the range)");
         }
-        notes.push(format!("{why}; signed anyway (--force)"));
+        notes.push(format!("{why}; signed anyway (--outside-baseline)"));
     }
     Ok((line, notes))
 }
@@ -264,7 +245,7 @@ mod tests {
         let a = [0.0, 0.0, 1.0];
         let e = laser_line(&laser([-4.12, -10.67, 0.0], a), p, (0.078, 0.145), false).unwrap_err().to_string();
         assert!(e.contains("11.44 m baseline") && e.contains("as centimetres it would be 114.4 mm"), "{e}");
-        assert!(e.contains("--force"), "{e}");
+        assert!(e.contains("--outside-baseline"), "{e}");
         let e = laser_line(&laser([-41.2, -106.7, 0.0], a), p, (0.078, 0.145), false).unwrap_err().to_string();
         assert!(e.contains("as millimetres it would be 114.4 mm"), "{e}");
         let (_, notes) = laser_line(&laser([-4.12, -10.67, 0.0], a), p, (0.078, 0.145), true).unwrap();

@@ -2,6 +2,8 @@
 
 use super::body_check::BodyCheckArgs;
 use super::lab_files::{self, LAB_FRAME};
+use super::outputs::{self, Input, Output};
+use super::parse;
 use super::pixels::parse_pixel;
 use super::progress;
 use super::signing::PriorUnit;
@@ -11,6 +13,7 @@ use crate::documents::laser::{
     DotsFileJson, DotsFrameJson, LabEquivalentJson, LaserDocument, LaserLineJson, SkippedTaskJson,
     COVARIANCE_PARAMETERS,
 };
+use crate::documents::refused::RefusedDocument;
 use crate::documents::{self, CameraJson, SCHEMA_VERSION};
 use crate::dot::candidates::DotDetectorParams;
 use crate::laser::fit::{Gates, Method};
@@ -94,11 +97,11 @@ pub struct LaserArgs {
     dots_image: Option<ImageGeometry>,
 
     /// Plausible camera-to-laser baseline for the rig, millimetres.
-    #[arg(long, value_name = "MIN,MAX", default_value = "78,145", value_parser = super::lab_files::parse_range_mm)]
+    #[arg(long, value_name = "MIN,MAX", default_value = "78,145", value_parser = parse::range_mm)]
     baseline_range_mm: (f64, f64),
 
     /// A used dot must lie within this many pixels of the fitted line's image.
-    #[arg(long, value_name = "PX", default_value_t = 4.0)]
+    #[arg(long, value_name = "PX", default_value = "4", value_parser = parse::positive_px, allow_negative_numbers = true)]
     max_dot_offset_px: f64,
 
     #[command(flatten)]
@@ -176,9 +179,14 @@ fn hand_dots(args: &LaserArgs, camera: &CameraModel) -> anyhow::Result<(HandDots
         Some(path) => Some(file_dots(args, path, camera, &mut dots)?),
         None => None,
     };
+    let mut given = std::collections::HashSet::new();
     for d in &args.dot {
         let (photo, xy) = d.split_once('=').unwrap_or((d, ""));
         let px = parse_pixel(xy).with_context(|| format!("--dot {d}: expected PHOTO=X,Y with X and Y in pixels"))?;
+        check_dot_photo(d, Path::new(photo), &args.photos)?;
+        if !given.insert(photo) {
+            bail!("--dot {d}: a second --dot for {photo}; give each photo's dot once");
+        }
         dots.insert(Path::new(photo), px);
     }
     Ok((dots, report))
@@ -239,7 +247,34 @@ fn file_dots(args: &LaserArgs, path: &Path, camera: &CameraModel, out: &mut Hand
     })
 }
 
+/// Refuses, before any work, an output that is one of the run's inputs or another output.
+fn check_outputs(args: &LaserArgs) -> anyhow::Result<()> {
+    let mut inputs = vec![Input::new("--camera", &args.camera)];
+    inputs.extend(args.dots.as_deref().map(|p| Input::new("--dots", p)));
+    inputs.extend(args.signing.key.as_deref().map(|p| Input::new("--key", p)));
+    if let TargetArg::Slate(p) = &args.target {
+        inputs.push(Input::new("--target", p));
+    }
+    inputs.extend(args.photos.iter().map(|p| Input::new("photo", p)));
+    let mut outs = Vec::new();
+    outs.extend(args.out.as_deref().map(|p| Output::result("--out", p)));
+    outs.extend(args.report.as_deref().map(|p| Output::report("--report", p)));
+    Ok(outputs::check(&inputs, &outs, args.signing.force)?)
+}
+
+/// Refuses a `--dot` for a photo that is not in the run (as given, or by file name, the
+/// way the dot is looked up): a typo must not leave the photo to detection silently.
+fn check_dot_photo(option: &str, photo: &Path, photos: &[PathBuf]) -> anyhow::Result<()> {
+    let name = photo.file_name();
+    if photos.iter().any(|p| p == photo || (name.is_some() && p.file_name() == name)) {
+        return Ok(());
+    }
+    bail!("--dot {option}: {} is not one of this run's photos; name it as given on the command line", photo.display())
+}
+
 pub fn run(args: LaserArgs) -> anyhow::Result<ExitCode> {
+    check_outputs(&args)?;
+    let args = LaserArgs { photos: super::photos::prepare(&args.photos)?, ..args };
     let CameraInput { camera, prior, expected, lab_note } = read_camera(&args)?;
     let signed_out = args.out.as_deref().filter(|o| signing::is_unit_file_path(o));
     if let Some(out) = signed_out {
@@ -278,6 +313,7 @@ pub fn run(args: LaserArgs) -> anyhow::Result<ExitCode> {
         (None, Some(out)) => {
             let mut text = documents::to_text(&document)?;
             text.push('\n');
+            outputs::say_if_replacing(out);
             write_atomically(out, text.as_bytes())
                 .with_context(|| format!("{}: cannot write the result", out.display()))?;
             if !args.json {
@@ -296,11 +332,6 @@ fn job(
     expected: &ExpectedCamera,
     hand_dots: HandDots,
 ) -> anyhow::Result<LaserJob> {
-    for p in &args.photos {
-        if !p.is_file() {
-            bail!("{}: no such photo", p.display());
-        }
-    }
     args.body.check(expected, &args.photos)?;
     Ok(LaserJob {
         camera,
@@ -324,7 +355,10 @@ fn fit(args: &LaserArgs, job: &LaserJob) -> anyhow::Result<LaserCalibration> {
     match result {
         Ok(c) => Ok(c),
         Err(LaserError::Fit { source, photos }) => {
-            if !args.json {
+            if args.json {
+                let error = format!("cannot fit the laser: {source}");
+                println!("{}", documents::to_text(&RefusedDocument::new(error, photos.clone()))?);
+            } else {
                 eprint!("{}", photo_table(&photos));
             }
             write_report(args, job, LaserOutcome::Refused { reason: &source, photos: &photos })?;
@@ -356,6 +390,7 @@ fn write_signed(
         signing_args.water_depth_m = depths.get(depths.len() / 2).map(|&d| d as f32);
     }
     let target = target_label(&job.target);
+    outputs::say_if_replacing(out);
     let size = signing::sign_unit_file(out, &signing_args, prior, unit_contents(&target, &job.camera, cal))?;
     if !args.json {
         println!("wrote {} (signed, {size} bytes)", out.display());
@@ -366,8 +401,8 @@ fn write_signed(
 fn write_report(args: &LaserArgs, job: &LaserJob, outcome: LaserOutcome) -> anyhow::Result<()> {
     let Some(dir) = &args.report else { return Ok(()) };
     let report = LaserReport { job, camera_file: &args.camera, outcome };
-    let index =
-        report::laser::write(dir, &report).with_context(|| format!("{}: cannot write the report", dir.display()))?;
+    outputs::say_if_replacing(dir);
+    let index = report::laser::write(dir, &report)?;
     if !args.json {
         // On stderr: a refused fit's summary went there too, and stdout may be piped.
         eprintln!("report: {}", index.display());

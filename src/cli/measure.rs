@@ -1,6 +1,7 @@
 //! `fslcal measure`: fish lengths from end points, the laser dot and a unit's calibration,
 //! with their 1-sigma, and a dive's length distribution.
 
+use super::outputs::{self, Input, Output};
 use super::pixels::{pixel_arg, read_dots_csv};
 use super::progress;
 use crate::atomic_file::write_atomically;
@@ -75,7 +76,7 @@ pub struct MeasureArgs {
     dots: Option<PathBuf>,
 
     /// 1-sigma of a dot's centre in pixels, for the length's 1-sigma and the off-line check.
-    #[arg(long, value_name = "PX", default_value_t = 1.0)]
+    #[arg(long, value_name = "PX", default_value = "1", value_parser = super::parse::positive_px, allow_negative_numbers = true)]
     dot_sigma_px: f64,
 
     /// Write one row per fish here (CSV).
@@ -90,20 +91,50 @@ pub struct MeasureArgs {
     #[arg(long)]
     json: bool,
 
-    /// Photos (JPEG or PNG).
+    /// Photos (JPEG, PNG or Olympus ORF raw).
     #[arg(value_name = "PHOTOS")]
     photos: Vec<PathBuf>,
 }
 
-pub fn run(args: MeasureArgs) -> anyhow::Result<ExitCode> {
-    if !(args.dot_sigma_px > 0.0 && args.dot_sigma_px.is_finite()) {
-        bail!("--dot-sigma-px must be a positive number of pixels");
+/// Refuses, before any work, an output that is one of the run's inputs or the other output.
+fn check_outputs(args: &MeasureArgs) -> anyhow::Result<()> {
+    let mut inputs = Vec::new();
+    for (what, path) in
+        [("--cal", &args.cal), ("--labels", &args.labels), ("--dots", &args.dots), ("--mask", &args.mask)]
+    {
+        inputs.extend(path.as_deref().map(|p| Input::new(what, p)));
     }
-    for p in &args.photos {
-        if !p.is_file() {
-            bail!("{}: no such photo", p.display());
+    // The masks a folder holds are inputs too (a file merely in the folder may be replaced).
+    let masks: Vec<PathBuf> = args
+        .masks
+        .as_deref()
+        .and_then(|d| std::fs::read_dir(d).ok())
+        .map(|entries| entries.filter_map(|e| e.ok().map(|e| e.path())).collect())
+        .unwrap_or_default();
+    inputs.extend(masks.iter().map(|p| Input::new("mask", p)));
+    inputs.extend(args.photos.iter().map(|p| Input::new("photo", p)));
+    let mut outs = Vec::new();
+    outs.extend(args.out.as_deref().map(|p| Output::file("--out", p)));
+    outs.extend(args.summary_out.as_deref().map(|p| Output::file("--summary-out", p)));
+    Ok(outputs::check(&inputs, &outs, false)?)
+}
+
+pub fn run(args: MeasureArgs) -> anyhow::Result<ExitCode> {
+    check_outputs(&args)?;
+    if let (Some(head), Some(tail)) = (args.head, args.tail) {
+        // Before any work: a zero-length fish would be measured as 0.0 mm ± 0.0.
+        if (head - tail).norm() < 1.0 {
+            let show = super::parse::show_number;
+            bail!(
+                "--head {},{} and --tail {},{} are the same point: give the snout and the fork of the tail",
+                show(head.x),
+                show(head.y),
+                show(tail.x),
+                show(tail.y)
+            );
         }
     }
+    let args = MeasureArgs { photos: super::photos::prepare(&args.photos)?, ..args };
     if args.labels.is_some() || args.masks.is_some() {
         return batch(&args);
     }
@@ -216,22 +247,33 @@ fn single(args: &MeasureArgs) -> anyhow::Result<ExitCode> {
         println!("{}", documents::to_text(&document)?);
     } else {
         println!(
-            "{}: length {:.1} mm ± {:.1} mm (1-sigma), distance {:.3} m ± {:.1} mm (calibration {:.1} mm, dot {:.1} mm); dot {:.2} px from the laser line",
+            "{}: length {:.1} mm ± {} (1-sigma), distance {:.3} m ± {} (calibration {}, dot {:.1} mm); dot {:.2} px from the laser line",
             photo.display(),
             length.length_m * 1e3,
-            length.length_sigma_m * 1e3,
+            mm(length.length_sigma_m),
             length.distance_m,
-            length.distance_sigma_m * 1e3,
-            length.distance_sigma_calibration_m * 1e3,
+            mm(length.distance_sigma_m),
+            mm(length.distance_sigma_calibration_m),
             length.distance_sigma_dot_m * 1e3,
             length.dot_offset_px,
         );
+        if length.distance_sigma_calibration_m.is_none() {
+            println!("  {UNKNOWN_COVARIANCE}");
+        }
         if let Some(e) = &fish.ends {
             println!("  {}", head_call_text(e.head_call));
         }
     }
     Ok(ExitCode::SUCCESS)
 }
+
+/// A 1-sigma in millimetres, or "unknown" when the calibration's covariance is.
+fn mm(sigma_m: Option<f64>) -> String {
+    sigma_m.map_or_else(|| "unknown".into(), |s| format!("{:.1} mm", s * 1e3))
+}
+
+/// Said once with lengths whose 1-sigma is unknown.
+const UNKNOWN_COVARIANCE: &str = "the calibration's covariance is unknown (an imported calibration records none): the 1-sigma cannot be given, and the dot's part alone would understate it";
 
 /// The one fish's end points: from `--mask` or from `--head` and `--tail`.
 struct OneFish {
@@ -491,6 +533,10 @@ fn batch(args: &MeasureArgs) -> anyhow::Result<ExitCode> {
         None => Vec::new(),
     };
     let source = match &args.masks {
+        Some(dir) if dir.is_file() => bail!(
+            "{}: a file, not a folder of masks; give the folder the masks are in (--mask FILE is for one fish)",
+            dir.display()
+        ),
         Some(dir) if !dir.is_dir() => bail!("{}: no such folder of masks", dir.display()),
         Some(dir) => Ends::Masks(dir),
         None => Ends::Labels(&labels),
@@ -526,10 +572,12 @@ fn batch(args: &MeasureArgs) -> anyhow::Result<ExitCode> {
     }
     let summary = Summary::of(&rows);
     if let Some(out) = &args.out {
+        outputs::say_if_replacing(out);
         write_atomically(out, rows_csv(&rows).as_bytes())
             .with_context(|| format!("{}: cannot write the lengths", out.display()))?;
     }
     if let Some(out) = &args.summary_out {
+        outputs::say_if_replacing(out);
         write_atomically(out, summary.csv().as_bytes())
             .with_context(|| format!("{}: cannot write the summary", out.display()))?;
     }
@@ -547,6 +595,9 @@ fn batch(args: &MeasureArgs) -> anyhow::Result<ExitCode> {
         println!("{}", documents::to_text(&document)?);
     } else {
         print!("{}", table(&rows));
+        if rows.iter().any(|r| r.result.as_ref().is_ok_and(|l| l.distance_sigma_calibration_m.is_none())) {
+            println!("{UNKNOWN_COVARIANCE}");
+        }
         if !unlabelled.is_empty() {
             println!("{} photo(s) without a labelled fish", unlabelled.len());
         }
@@ -572,8 +623,8 @@ fn row_document(r: &FishRow) -> FishRowJson {
         head_call: r.head_call,
         length_m: length.map(|l| l.length_m),
         distance_m: length.map(|l| l.distance_m),
-        length_sigma_m: length.map(|l| l.length_sigma_m),
-        distance_sigma_m: length.map(|l| l.distance_sigma_m),
+        length_sigma_m: length.and_then(|l| l.length_sigma_m),
+        distance_sigma_m: length.and_then(|l| l.distance_sigma_m),
         dot_offset_px: length.map(|l| l.dot_offset_px),
         flags: r.result.as_ref().err().cloned().unwrap_or_default(),
     }
@@ -592,8 +643,14 @@ fn table(rows: &[FishRow]) -> String {
     for r in rows {
         let (length, distance, status) = match &r.result {
             Ok(l) => (
-                format!("{:.1} ± {:.1}", l.length_m * 1e3, l.length_sigma_m * 1e3),
-                format!("{:.3} ± {:.3}", l.distance_m, l.distance_sigma_m),
+                match l.length_sigma_m {
+                    Some(s) => format!("{:.1} ± {:.1}", l.length_m * 1e3, s * 1e3),
+                    None => format!("{:.1} ± unknown", l.length_m * 1e3),
+                },
+                match l.distance_sigma_m {
+                    Some(s) => format!("{:.3} ± {s:.3}", l.distance_m),
+                    None => format!("{:.3} ± unknown", l.distance_m),
+                },
                 "measured".to_string(),
             ),
             Err(flags) => (
@@ -618,7 +675,17 @@ fn rows_csv(rows: &[FishRow]) -> String {
     for r in rows {
         let (numbers, flags) = match &r.result {
             Ok(l) => (
-                format!("{:.5},{:.5},{:.4},{:.5}", l.length_m, l.length_sigma_m, l.distance_m, l.distance_sigma_m),
+                {
+                    // An unknown 1-sigma is an empty field, never 0.
+                    let or_empty = |s: Option<f64>, d: usize| s.map_or(String::new(), |s| format!("{s:.d$}"));
+                    format!(
+                        "{:.5},{},{:.4},{}",
+                        l.length_m,
+                        or_empty(l.length_sigma_m, 5),
+                        l.distance_m,
+                        or_empty(l.distance_sigma_m, 5)
+                    )
+                },
                 String::new(),
             ),
             Err(f) => (",,,".to_string(), f.iter().map(Withheld::flag_name).collect::<Vec<_>>().join(";")),

@@ -15,6 +15,9 @@ mod lab_files;
 #[cfg(feature = "vision")]
 mod laser;
 mod measure;
+mod outputs;
+mod parse;
+mod photos;
 mod pixels;
 mod progress;
 mod signing;
@@ -24,6 +27,7 @@ mod validate;
 mod verify;
 
 pub use develop::develop_one;
+pub use parse::show_number;
 
 use clap::{Parser, Subcommand};
 use std::process::ExitCode;
@@ -57,6 +61,25 @@ enum Command {
     Measure(measure::MeasureArgs),
 }
 
+/// The one line an error is printed as: its message and each cause of its chain, each said
+/// once. A cause whose words the line already holds (an error that names its cause and
+/// also reports it as its source) is not repeated: "No such file or directory (os error
+/// 2): No such file or directory (os error 2)" reads as a fault of the tool.
+pub fn error_line(err: &anyhow::Error) -> String {
+    let mut line = String::new();
+    for cause in err.chain() {
+        let text = cause.to_string();
+        if text.is_empty() || line.contains(&text) {
+            continue;
+        }
+        if !line.is_empty() {
+            line.push_str(": ");
+        }
+        line.push_str(&text);
+    }
+    line
+}
+
 /// Parses the command line and runs the subcommand.
 pub fn run() -> anyhow::Result<ExitCode> {
     let cli = Cli::parse();
@@ -77,5 +100,30 @@ pub fn run() -> anyhow::Result<ExitCode> {
         #[cfg(feature = "vision")]
         Command::Check(args) => check::run(args),
         Command::Measure(args) => measure::run(args),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[derive(Debug, thiserror::Error)]
+    #[error("{path}: cannot read: {source}")]
+    struct Twice {
+        path: String,
+        source: std::io::Error,
+    }
+
+    #[test]
+    fn each_cause_is_said_once() {
+        let io = || std::io::Error::new(std::io::ErrorKind::NotFound, "No such file or directory (os error 2)");
+        let err = anyhow::Error::new(Twice { path: "x.orf".into(), source: io() });
+        assert_eq!(
+            format!("{err:#}"),
+            "x.orf: cannot read: No such file or directory (os error 2): No such file or directory (os error 2)"
+        );
+        assert_eq!(error_line(&err), "x.orf: cannot read: No such file or directory (os error 2)");
+        let wrapped = anyhow::Error::new(io()).context("camera.yml: cannot read");
+        assert_eq!(error_line(&wrapped), "camera.yml: cannot read: No such file or directory (os error 2)");
     }
 }

@@ -33,8 +33,13 @@ pub struct SigningArgs {
     pub camera_serial: Option<String>,
 
     /// Water depth where the calibration photos were taken, metres.
-    #[arg(long, value_name = "M")]
+    #[arg(long, value_name = "M", value_parser = super::parse::water_depth_m, allow_negative_numbers = true)]
     pub water_depth_m: Option<f32>,
+
+    /// Replace a signed unit file already at --out; without it an existing .fslcal is never
+    /// overwritten.
+    #[arg(long)]
+    pub force: bool,
 }
 
 impl SigningArgs {

@@ -41,6 +41,12 @@ enum UnitsAction {
         #[arg(long, value_name = "FSL-NN")]
         unit: Option<String>,
     },
+    /// Trust a signer: copy their public key (KEY.pub, from `fslcal keygen`) into the
+    /// registry's `trusted/` folder, created if missing.
+    Trust {
+        #[arg(value_name = "KEY.pub")]
+        key: PathBuf,
+    },
     /// Each unit's current calibration, its age and signer, and the last validation result.
     List {
         /// Judge signers against these keys instead of the registry's `trusted/`.
@@ -63,6 +69,7 @@ pub fn run(args: UnitsArgs) -> anyhow::Result<ExitCode> {
     let registry = Registry::new(&args.registry);
     match args.action {
         UnitsAction::Add { file, trust, unit } => add(&registry, &file, trust.as_deref(), unit.as_deref(), args.json),
+        UnitsAction::Trust { key } => trust(&registry, &key, args.json),
         UnitsAction::List { trust } => list(&registry, trust.as_deref(), args.json),
         UnitsAction::Diff { old, new } => diff(&old, &new, args.json),
     }
@@ -86,11 +93,15 @@ fn add(
     as_json: bool,
 ) -> anyhow::Result<ExitCode> {
     if is_json(file) {
-        let (dest, unit, pass) = registry.add_validation(file, unit)?;
+        let (filed, unit, pass) = registry.add_validation(file, unit)?;
+        let (dest, new) = (filed.path().display().to_string(), matches!(filed, Filed::New(_)));
+        let verdict = if pass { "pass" } else { "FAIL" };
         if as_json {
-            println!("{}", json!({ "unit": unit, "validation": dest.display().to_string(), "pass": pass }));
+            println!("{}", json!({ "unit": unit, "validation": dest, "pass": pass, "new": new }));
+        } else if new {
+            println!("{unit}: validation {verdict} filed as {dest}");
         } else {
-            println!("{unit}: validation {} filed as {}", if pass { "pass" } else { "FAIL" }, dest.display());
+            println!("{unit}: validation {verdict} already filed as {dest}");
         }
         return Ok(ExitCode::SUCCESS);
     }
@@ -106,6 +117,20 @@ fn add(
         println!("{unit}: filed {}", dest.display());
     } else {
         println!("{unit}: already filed as {}", dest.display());
+    }
+    Ok(ExitCode::SUCCESS)
+}
+
+fn trust(registry: &Registry, key: &Path, as_json: bool) -> anyhow::Result<ExitCode> {
+    let filed = registry.trust(key)?;
+    let (dest, new) = (filed.path().display().to_string(), matches!(filed, Filed::New(_)));
+    let id = fslcal_core::unit_file::KeyId::of(&crate::units::keys::read_public(key)?).to_string();
+    if as_json {
+        println!("{}", json!({ "trusted": dest, "key_id": id, "new": new }));
+    } else if new {
+        println!("trusted key {id}: {dest}");
+    } else {
+        println!("key {id} is already trusted: {dest}");
     }
     Ok(ExitCode::SUCCESS)
 }
@@ -145,9 +170,11 @@ fn list(registry: &Registry, trust: Option<&Path>, as_json: bool) -> anyhow::Res
                         "signer": c.signer.to_string(),
                         "provenance": c.provenance.name(),
                         "status": status_text(&c.status),
+                        "sha256": c.sha256,
                     })),
                     "last_validation": u.last_validation.as_ref().map(|v| json!({
                         "file": v.file.display().to_string(),
+                        "validated_utc": utc_time::format_iso(v.validated_utc_s),
                         "filed_utc": utc_time::format_iso(v.filed_utc_s),
                         "pass": v.pass,
                     })),
@@ -183,7 +210,7 @@ fn list(registry: &Registry, trust: Option<&Path>, as_json: bool) -> anyhow::Res
             None => ("-".into(), "-".into(), "-".into(), "no readable calibration".into()),
         };
         let validation = u.last_validation.as_ref().map_or("-".to_string(), |v| {
-            format!("{} {}", if v.pass { "pass" } else { "FAIL" }, &utc_time::format_iso(v.filed_utc_s)[..10])
+            format!("{} {}", if v.pass { "pass" } else { "FAIL" }, &utc_time::format_iso(v.validated_utc_s)[..10])
         });
         println!("{:8} {:>4}  {made:20} {age:>6}  {signer:16}  {validation:16}  {status}", u.unit, u.calibrations);
     }

@@ -1,15 +1,22 @@
 //! `fslcal validate`: the slate-length check of a calibration.
 
 use super::body_check::BodyCheckArgs;
+use super::outputs::{self, Input, Output};
 use super::progress;
 use crate::calibration;
-use crate::calibration::validate::{validate, LengthRule, Validation, ValidationJob, ValidationOutcome};
-use crate::documents::{self, validation::ValidationDocument};
+use crate::calibration::validate::{
+    validate, LengthRule, Validation, ValidationError, ValidationJob, ValidationOutcome,
+};
+use crate::documents::refused::RefusedDocument;
+use crate::documents::validation::{CalibrationUsed, ValidationDocument};
+use crate::documents::{self};
 use crate::dot::candidates::DotDetectorParams;
 use crate::laser::target::TargetArg;
 use crate::photo::identity::ExpectedCamera;
 use crate::report::{self, validate::ValidationReport};
-use anyhow::{bail, Context};
+use crate::units::registry::sha256_hex;
+use crate::utc_time;
+use anyhow::bail;
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
@@ -34,7 +41,7 @@ pub struct ValidateArgs {
     length: Option<String>,
 
     /// Pass when every photo's length error is within this many percent.
-    #[arg(long, value_name = "PCT", default_value_t = 3.0)]
+    #[arg(long, value_name = "PCT", default_value = "3", value_parser = super::parse::percentage, allow_negative_numbers = true)]
     tolerance: f64,
 
     /// Where the end points lie: on the plane through the dot with the target's detected
@@ -61,15 +68,18 @@ pub struct ValidateArgs {
 }
 
 pub fn run(args: ValidateArgs) -> anyhow::Result<ExitCode> {
-    if !(args.tolerance > 0.0 && args.tolerance < 100.0) {
-        bail!("--tolerance {}: expected a percentage between 0 and 100", args.tolerance);
+    let mut inputs = vec![Input::new("--cal", &args.cal)];
+    if let TargetArg::Slate(p) = &args.target {
+        inputs.push(Input::new("--target", p));
     }
-    let cal = calibration::load(&args.cal)?;
-    for p in &args.photos {
-        if !p.is_file() {
-            bail!("{}: no such photo", p.display());
-        }
-    }
+    inputs.extend(args.photos.iter().map(|p| Input::new("photo", p)));
+    let outs: Vec<Output> = args.report.as_deref().map(|p| Output::report("--report", p)).into_iter().collect();
+    outputs::check(&inputs, &outs, false)?;
+    let bytes = std::fs::read(&args.cal)
+        .map_err(|cause| calibration::CalibrationError::Io { path: args.cal.display().to_string(), cause })?;
+    let cal = calibration::from_bytes(&bytes, &args.cal)?;
+    let validated_utc_s = utc_time::now_s();
+    let args = ValidateArgs { photos: super::photos::prepare(&args.photos)?, ..args };
     args.body.check(&ExpectedCamera::from(&cal), &args.photos)?;
     let target = args.target.load()?;
     let job = ValidationJob {
@@ -83,19 +93,38 @@ pub fn run(args: ValidateArgs) -> anyhow::Result<ExitCode> {
     let bar = progress::bar(args.photos.len(), "photos", args.json);
     let result = validate(&job, &args.photos, &|| bar.inc(1));
     bar.finish_and_clear();
-    let v = result.context("validation")?;
-    if args.json {
-        println!("{}", documents::to_text(&ValidationDocument::new(&v, job.cal.unit.clone()))?);
+    // Nothing measured is still a run that read photos: each says why, then the error.
+    let (v, refused) = match result {
+        Ok(v) => (v, None),
+        Err(ValidationError::NothingMeasured(v)) => {
+            let message = ValidationError::NothingMeasured(v.clone()).to_string();
+            (*v, Some(message))
+        }
+        Err(e) => return Err(anyhow::Error::new(e).context("validation")),
+    };
+    if let (Some(error), true) = (&refused, args.json) {
+        println!("{}", documents::to_text(&RefusedDocument::new(error, v.photos.clone()))?);
+    } else if args.json {
+        let used = CalibrationUsed {
+            unit: job.cal.unit.clone(),
+            file: args.cal.display().to_string(),
+            sha256: sha256_hex(&bytes),
+            validated_utc_s,
+        };
+        println!("{}", documents::to_text(&ValidationDocument::new(&v, used))?);
     } else {
         print!("{}", summary(&v));
     }
     if let Some(dir) = &args.report {
         let page = ValidationReport::of(&v, &args.cal, job.target.to_string());
-        let index = report::validate::write(dir, &page)
-            .with_context(|| format!("{}: cannot write the report", dir.display()))?;
+        outputs::say_if_replacing(dir);
+        let index = report::validate::write(dir, &page)?;
         if !args.json {
             eprintln!("report: {}", index.display());
         }
+    }
+    if let Some(error) = refused {
+        bail!("validation: {error}");
     }
     if !v.pass {
         bail!("calibration failed validation: {}", failure(&v));
@@ -169,6 +198,10 @@ fn summary(v: &Validation) -> String {
         }
         None => s += "error against distance: not judged (needs 3 photos spread over 0.5 m or more)\n",
     }
-    s += if v.pass { "\nverdict: PASS\n" } else { "\nverdict: FAIL\n" };
+    s += match (errs.len(), v.pass) {
+        (0, _) => "\nverdict: NOT JUDGED (no photo could be measured; reasons above)\n",
+        (_, true) => "\nverdict: PASS\n",
+        (_, false) => "\nverdict: FAIL\n",
+    };
     s
 }

@@ -75,7 +75,8 @@ pub struct FishLengthDocument {
     /// The laser dot used, pixels.
     pub dot_px: Option<[f64; 2]>,
     /// `length_m`, `distance_m` and their 1-sigma, the distance's 1-sigma from the
-    /// calibration and from the dot alone, all metres; `dot_offset_px`.
+    /// calibration and from the dot alone, all metres (the 1-sigmas that need the
+    /// calibration's covariance are null when it is unknown); `dot_offset_px`.
     #[serde(flatten)]
     pub length: Length,
     /// The end points as found in the mask, when they came from one.

@@ -8,6 +8,7 @@
 //! | validation report | `fslcal validate --json` | `fslcal units add-validation` | [`validation::ValidationDocument`] |
 //! | check result | `fslcal check --json` | (other tools) | [`check::CheckDocument`] |
 //! | lengths | `fslcal measure --json` (a dive, one fish, a mask's ends) | (other tools) | [`lengths`] |
+//! | refused run | `laser`, `check`, `validate --json` when no photo gave a result | (other tools) | [`refused::RefusedDocument`] |
 //!
 //! The documents live together, apart from the types the chains compute with, because they
 //! are a contract with users' files and scripts: a field renamed in a chain must not
@@ -20,6 +21,7 @@ pub mod camera;
 pub mod check;
 pub mod laser;
 pub mod lengths;
+pub mod refused;
 pub mod validation;
 
 use fslcal_core::{CameraModel, Distortion};

@@ -1,7 +1,8 @@
 //! The validation report: what `fslcal validate --json` prints and `fslcal units
 //! add-validation` files.
 //!
-//! Filing needs only `pass` (and `unit`, unless `--unit` names it): the registry keeps the
+//! Filing needs `pass`, `calibration_sha256` (the registry files a report only beside the
+//! calibration it validated) and `unit`, unless `--unit` names it: the registry keeps the
 //! report's bytes as they are and reads its verdict.
 
 use super::{report_part, schema_version_1};
@@ -17,6 +18,16 @@ pub struct ValidationDocument {
     /// The calibration's unit (`FSL-NN`), when the calibration names one.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub unit: Option<String>,
+    /// The calibration file validated, as given to `--cal`.
+    #[serde(default)]
+    pub calibration_file: Option<String>,
+    /// SHA-256 of the calibration file's bytes, lower-case hex: which calibration this
+    /// report is about (a registry shows it only beside that file).
+    #[serde(default)]
+    pub calibration_sha256: Option<String>,
+    /// When the validation ran, ISO 8601 UTC (`2026-06-02T10:15:00Z`).
+    #[serde(default)]
+    pub validated_utc: Option<String>,
     /// The known length's name.
     pub length: Option<String>,
     /// The known length, millimetres.
@@ -36,13 +47,28 @@ pub struct ValidationDocument {
     pub pass: bool,
 }
 
+/// The calibration a validation used, as its report names it.
+#[derive(Clone, Debug)]
+pub struct CalibrationUsed {
+    /// `FSL-NN`, when the calibration names its unit.
+    pub unit: Option<String>,
+    pub file: String,
+    /// SHA-256 of the file's bytes, hex.
+    pub sha256: String,
+    /// When the validation ran, seconds since 1970 UTC.
+    pub validated_utc_s: i64,
+}
+
 #[cfg(feature = "vision")]
 impl ValidationDocument {
-    /// The document of a validation of the calibration of `unit`.
-    pub fn new(v: &crate::calibration::validate::Validation, unit: Option<String>) -> Self {
+    /// The document of a validation of the calibration `used`.
+    pub fn new(v: &crate::calibration::validate::Validation, used: CalibrationUsed) -> Self {
         ValidationDocument {
             schema_version: super::SCHEMA_VERSION,
-            unit,
+            unit: used.unit,
+            calibration_file: Some(used.file),
+            calibration_sha256: Some(used.sha256),
+            validated_utc: Some(crate::utc_time::format_iso(used.validated_utc_s)),
             length: Some(v.length_name.clone()),
             true_mm: Some(v.true_mm),
             rule: Some(v.rule),

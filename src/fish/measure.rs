@@ -189,16 +189,17 @@ impl Default for MeasureParams {
 }
 
 /// A length with where it came from: metres, and the dot's offset from the laser's image in
-/// pixels.
+/// pixels. The 1-sigmas that need the calibration's covariance are `None` when it is
+/// unknown (an imported calibration): the dot's part alone would understate them.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct Length {
     pub length_m: f64,
     pub distance_m: f64,
-    pub length_sigma_m: f64,
-    pub distance_sigma_m: f64,
+    pub length_sigma_m: Option<f64>,
+    pub distance_sigma_m: Option<f64>,
     /// The distance's 1-sigma from the calibration's covariance alone, and from the dot's
     /// localisation alone.
-    pub distance_sigma_calibration_m: f64,
+    pub distance_sigma_calibration_m: Option<f64>,
     pub distance_sigma_dot_m: f64,
     pub dot_offset_px: f64,
 }
@@ -275,13 +276,15 @@ pub fn measure(
         (Some(a), Some(b)) => (b - a).abs() * params.dot_sigma_px,
         _ => 0.0,
     };
-    let sigma_cal = cal.distance_sigma_m(z).unwrap_or(0.0);
-    let distance_sigma_m = (sigma_cal.powi(2) + sigma_dot.powi(2)).sqrt();
+    // Unknown when the calibration's covariance is (never taken as zero, which would leave
+    // the dot's part alone and read as far more certain than it is).
+    let sigma_cal = cal.distance_sigma_m(z);
+    let distance_sigma_m = sigma_cal.map(|c| c.hypot(sigma_dot));
     Ok(Length {
         length_m,
         distance_m: z,
         // Length is proportional to distance (L = D n w / f).
-        length_sigma_m: length_m * distance_sigma_m / z,
+        length_sigma_m: distance_sigma_m.map(|s| length_m * s / z),
         distance_sigma_m,
         distance_sigma_calibration_m: sigma_cal,
         distance_sigma_dot_m: sigma_dot,

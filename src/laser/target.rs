@@ -78,9 +78,75 @@ impl std::str::FromStr for TargetArg {
         match s.trim().split_once(':') {
             Some(("slate", path)) if !path.trim().is_empty() => Ok(TargetArg::Slate(PathBuf::from(path.trim()))),
             Some(("slate", _)) => Err("`slate:` needs the slate's definition, e.g. slate:my-slate/slate.toml".into()),
-            _ => s.parse::<Checkerboard>().map(TargetArg::Checkerboard).map_err(|e| format!("{e}, or slate:PATH.toml")),
+            _ => parse_checkerboard(s).map(TargetArg::Checkerboard).map_err(|e| format!("{e}, or slate:PATH.toml")),
         }
     }
+}
+
+/// Most inner corners along a side fslcal takes: a board of more is a typing slip.
+const MAX_INNER_CORNERS: u32 = 100;
+
+/// A checkerboard named on the command line, `[checkerboard:]COLSxROWS@SQUAREmm`, checked
+/// beyond what the target's own parser knows: OpenCV's finder needs at least 3x3 inner
+/// corners, a square measured in another unit (`42.17cm`) is told as such with the size in
+/// millimetres, and an absurd size is printed readably.
+pub fn parse_checkerboard(text: &str) -> Result<Checkerboard, String> {
+    let body = text.trim();
+    let body = body.strip_prefix("checkerboard:").unwrap_or(body);
+    if let Some((_, square)) = body.split_once('@') {
+        check_square(text, square.trim())?;
+    }
+    let board =
+        body.parse::<Checkerboard>().map_err(|e| e.to_string().replace(&format!("`{body}`"), &format!("`{text}`")))?;
+    let (cols, rows) = (board.inner_cols, board.inner_rows);
+    if cols < 3 || rows < 3 {
+        return Err(format!("`{text}`: OpenCV finds boards of 3x3 inner corners or more (count the corners where four squares meet, not the squares)"));
+    }
+    if cols > MAX_INNER_CORNERS || rows > MAX_INNER_CORNERS {
+        return Err(format!(
+            "`{text}`: {cols}x{rows} inner corners is not a board fslcal can find (at most {MAX_INNER_CORNERS} a side)"
+        ));
+    }
+    Ok(board)
+}
+
+/// The square size `SIZEUNIT` of a board: in mm or m, plausible, or refused saying what
+/// it would be in millimetres.
+fn check_square(text: &str, square: &str) -> Result<(), String> {
+    let unit_len =
+        square.chars().rev().take_while(|c| c.is_alphabetic() || *c == '"').map(char::len_utf8).sum::<usize>();
+    let (number, unit) = square.split_at(square.len() - unit_len);
+    let Ok(value) = number.trim().parse::<f64>() else { return Ok(()) };
+    let to_mm = match unit {
+        "mm" => 1.0,
+        "m" => 1e3,
+        "cm" => 10.0,
+        "in" | "inch" | "inches" | "\"" => 25.4,
+        "um" | "µm" => 1e-3,
+        "" => {
+            return Err(format!(
+                "`{text}`: the square size needs a unit: `{}mm` (millimetres) or `{}m`",
+                number.trim(),
+                number.trim()
+            ))
+        }
+        _ => {
+            return Err(format!(
+                "`{text}`: `{unit}` is not a unit for the square size; give millimetres (e.g. 42.17mm) or metres"
+            ))
+        }
+    };
+    let mm = value * to_mm;
+    if !(1.0..=500.0).contains(&mm) {
+        return Err(format!("`{text}`: a {} mm square is not plausible (1-500 mm)", crate::cli::show_number(mm)));
+    }
+    if !matches!(unit, "mm" | "m") {
+        return Err(format!(
+            "`{text}`: the square size is in {unit}; fslcal takes mm or m: write `{}mm`",
+            crate::cli::show_number(mm)
+        ));
+    }
+    Ok(())
 }
 
 /// Why a slate named on the command line cannot be used.

@@ -143,9 +143,11 @@ pub fn read(path: &Path, dot_label: &str) -> Result<DotsFile, DotsFileError> {
 
 /// `file,x,y` rows: the photo as written (a path or a file name) and its dot in pixels. A
 /// first row naming its columns and `#` comments are allowed; anything else that is not a
-/// row is refused with its line.
+/// row is refused with its line, and so are two rows giving one photo different dots
+/// (repeated identical rows count once).
 pub fn parse_csv(text: &str) -> Result<Vec<(String, Vec2)>, String> {
     let mut dots = Vec::new();
+    let mut first_line: std::collections::HashMap<String, (usize, Vec2)> = std::collections::HashMap::new();
     let mut first = true;
     for (n, line) in text.trim_start_matches('\u{feff}').lines().enumerate() {
         let line = line.trim();
@@ -156,7 +158,23 @@ pub fn parse_csv(text: &str) -> Result<Vec<(String, Vec2)>, String> {
         let number = |c: &str| c.parse::<f64>().ok().filter(|v| v.is_finite());
         match cells.as_slice() {
             [file, x, y] if !file.is_empty() => match (number(x), number(y)) {
-                (Some(x), Some(y)) => dots.push((file.to_string(), Vec2::new(x, y))),
+                (Some(x), Some(y)) => {
+                    let px = Vec2::new(x, y);
+                    // Which of two different rows is right is the labeller's call, not the last row's.
+                    match first_line.get(*file) {
+                        Some(&(line_no, earlier)) if earlier != px => {
+                            return Err(format!(
+                                "line {}: a second, different dot for {file} (line {line_no} gives another); keep one row per photo",
+                                n + 1
+                            ));
+                        }
+                        Some(_) => {}
+                        None => {
+                            first_line.insert(file.to_string(), (n + 1, px));
+                            dots.push((file.to_string(), px));
+                        }
+                    }
+                }
                 // A header names its columns: no number in them.
                 (None, None) if first => {}
                 _ => return Err(format!("line {}: expected `file,x,y` with x and y in pixels, got `{line}`", n + 1)),

@@ -7,4 +7,5 @@ pub mod exif;
 pub mod frame;
 pub mod identity;
 pub mod label_studio;
+pub mod names;
 pub mod raw;

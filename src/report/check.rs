@@ -41,6 +41,9 @@ pub struct CheckReport {
     pub photos: Vec<CheckPhoto>,
     pub drifted: bool,
     pub implied_direction_change_deg: Option<f64>,
+    /// The calibration's covariance is known (an imported one records none: the threshold
+    /// then counts the dot's localisation only, which the page says).
+    pub covariance_known: bool,
 }
 
 fn offset_chart(r: &CheckReport) -> Chart {
@@ -107,6 +110,7 @@ impl CheckReport {
                 .collect(),
             drifted: r.drifted,
             implied_direction_change_deg: r.implied_direction_change_deg,
+            covariance_known: fslcal_core::covariance_known(&cal.laser_covariance),
         }
     }
 }
@@ -123,9 +127,17 @@ pub fn write(dir: &Path, r: &CheckReport) -> Result<PathBuf, ReportError> {
         r.photos.len() - checked,
         r.calibration
     ));
+    if !r.covariance_known {
+        page.note("The calibration's covariance is unknown (an imported calibration records none): each photo's flag threshold counts the dot's localisation only, not the calibration's uncertainty.");
+    }
     let implied =
         r.implied_direction_change_deg.map_or(String::new(), |d| format!("; implied change of direction {d:.3} deg"));
-    if r.drifted {
+    if checked == 0 {
+        page.verdict(
+            Verdict::Rejected,
+            "NOT JUDGED: no photo has a dot the calibration can judge; each photo's reason is below.",
+        );
+    } else if r.drifted {
         page.verdict(Verdict::Rejected, &format!("DRIFTED: {flagged} of {checked} dots off the calibrated line{implied}. Recalibrate the laser before measuring these photos."));
     } else {
         page.verdict(Verdict::Accepted, &format!("No drift: {flagged} of {checked} dots flagged{implied}."));
@@ -217,6 +229,7 @@ mod tests {
             ],
             drifted: true,
             implied_direction_change_deg: Some(0.21),
+            covariance_known: true,
         };
         let out = dir.path().join("report");
         let html = std::fs::read_to_string(write(&out, &r).unwrap()).unwrap();
@@ -233,5 +246,10 @@ mod tests {
         let (u, v) = ((0.8 * (on_line.x + 0.5) - 0.5).round() as u32, (0.8 * (on_line.y + 0.5) - 0.5).round() as u32);
         let p = thumb.get_pixel(u, v).0;
         assert!(p[0] > 150 && p[1] < 100 && p[2] > 150, "magenta line at the dot's pixel: {p:?}");
+        assert!(!html.contains("covariance is unknown"));
+        // An imported calibration's unknown covariance is said, not taken as zero.
+        let unknown = CheckReport { covariance_known: false, ..r };
+        let html = std::fs::read_to_string(write(&out, &unknown).unwrap()).unwrap();
+        assert!(html.contains("covariance is unknown"), "{html}");
     }
 }

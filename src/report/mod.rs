@@ -16,14 +16,15 @@ pub mod plot;
 pub mod thumbnail;
 pub mod validate;
 
-use crate::atomic_file::write_atomically;
+use crate::atomic_file::replace_dir_atomically;
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
 #[derive(Debug, thiserror::Error)]
 pub enum ReportError {
-    #[error("{path}: cannot write the report: {source}")]
-    Io { path: String, source: std::io::Error },
+    /// The cause is in the message, not a `source`, or `{:#}` would say it twice.
+    #[error("{path}: cannot write the report: {cause}")]
+    Io { path: String, cause: std::io::Error },
     #[error("cannot draw the plot `{name}`: {message}")]
     Plot { name: String, message: String },
 }
@@ -79,7 +80,8 @@ pub fn thumbnail_cells(files: &mut ReportFiles, photos: &[(&str, thumbnail::Over
     use rayon::prelude::*;
     let drawn: Vec<Result<thumbnail::Thumbnail, thumbnail::ThumbnailError>> = photos
         .par_iter()
-        .map(|(path, overlay)| thumbnail::draw(Path::new(path), THUMBNAIL_WIDTH_PX, overlay))
+        // The photo itself, even when its path is not UTF-8 and the text lost some bytes.
+        .map(|(path, overlay)| thumbnail::draw(&crate::photo::names::path_of(path), THUMBNAIL_WIDTH_PX, overlay))
         .collect();
     photos
         .iter()
@@ -234,7 +236,7 @@ impl Page {
             "<!DOCTYPE html>\n<html lang=\"en\">\n<head>\n<meta charset=\"utf-8\">\n\
              <meta name=\"viewport\" content=\"width=device-width, initial-scale=1\">\n\
              <title>{title}</title>\n<style>{STYLE}</style>\n</head>\n<body>\n<h1>{title}</h1>\n{body}\
-             <p class=\"note\">Written by fslcal {version}. Self-contained: open this file offline; \
+             <p class=\"note\">{FOOTER_MARK} {version}. Self-contained: open this file offline; \
              the plots and thumbnails are the files beside it.</p>\n</body>\n</html>\n",
             title = escape(&self.title),
             body = self.body,
@@ -243,8 +245,10 @@ impl Page {
     }
 }
 
-/// The files of one report, relative to its folder; `index.html` is written last, so a
-/// report whose writing was interrupted never shows a page with missing pictures.
+/// The files of one report, relative to its folder. The folder is written whole into a
+/// temporary folder and swapped in with one rename ([`replace_dir_atomically`]): a reader, a
+/// crash or a kill sees the old report or the new one, never a page beside another run's
+/// plots, and no thumbnail of an earlier run stays.
 #[derive(Default)]
 pub struct ReportFiles {
     files: Vec<(PathBuf, Vec<u8>)>,
@@ -260,23 +264,66 @@ impl ReportFiles {
         self.files.iter().map(|(_, b)| b.len()).sum()
     }
 
-    /// Writes every file atomically into `dir` (created if missing), then `index.html`.
+    /// Replaces the folder `dir` (created if missing) with these files and `index.html`.
     /// Returns the path of `index.html`.
     pub fn write(self, dir: &Path, page: &Page) -> Result<PathBuf, ReportError> {
-        let io = |path: &Path, source| ReportError::Io { path: path.display().to_string(), source };
-        std::fs::create_dir_all(dir).map_err(|e| io(dir, e))?;
-        for (rel, bytes) in &self.files {
-            let path = dir.join(rel);
-            if let Some(parent) = path.parent() {
-                std::fs::create_dir_all(parent).map_err(|e| io(parent, e))?;
+        let io = |path: &Path, cause| ReportError::Io { path: path.display().to_string(), cause };
+        replace_dir_atomically(dir, |tmp| {
+            for (rel, bytes) in &self.files {
+                let path = tmp.join(rel);
+                if let Some(parent) = path.parent() {
+                    std::fs::create_dir_all(parent)?;
+                }
+                std::fs::write(&path, bytes)?;
             }
-            write_atomically(&path, bytes).map_err(|e| io(&path, e))?;
-        }
-        let index = dir.join("index.html");
-        write_atomically(&index, page.html().as_bytes()).map_err(|e| io(&index, e))?;
-        Ok(index)
+            std::fs::write(tmp.join("index.html"), page.html().as_bytes())
+        })
+        .map_err(|e| io(dir, e))?;
+        Ok(dir.join("index.html"))
     }
 }
+
+/// Whether the folder `dir` may be replaced by a report: it does not exist, is empty, or
+/// holds an fslcal report and nothing else (`index.html` written by fslcal, `plots/`,
+/// `thumbs/`). Writing a report replaces the whole folder, so a folder of photos or notes
+/// given by mistake must be refused, not emptied.
+pub fn replaceable_report_folder(dir: &Path) -> Result<(), ForeignFolder> {
+    let entries = match std::fs::read_dir(dir) {
+        Ok(e) => e,
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Ok(()),
+        Err(_) if dir.exists() => return Err(ForeignFolder::NotAFolder),
+        Err(_) => return Ok(()),
+    };
+    let names: Vec<String> =
+        entries.filter_map(|e| e.ok()).map(|e| e.file_name().to_string_lossy().into_owned()).collect();
+    if names.is_empty() {
+        return Ok(());
+    }
+    let ours = std::fs::read(dir.join("index.html"))
+        .is_ok_and(|html| html.windows(FOOTER_MARK.len()).any(|w| w == FOOTER_MARK.as_bytes()));
+    let mut foreign: Vec<String> =
+        names.into_iter().filter(|n| !matches!(n.as_str(), "index.html" | "plots" | "thumbs")).collect();
+    foreign.sort();
+    match (ours, foreign.is_empty()) {
+        (true, true) => Ok(()),
+        (false, _) => Err(ForeignFolder::NotAReport),
+        (true, false) => Err(ForeignFolder::OtherFiles(foreign.join(", "))),
+    }
+}
+
+/// Why a folder cannot take a report.
+#[derive(Debug, PartialEq, thiserror::Error)]
+pub enum ForeignFolder {
+    #[error("a file, not a folder")]
+    NotAFolder,
+    #[error("a folder that is not an fslcal report (writing the report would replace everything in it)")]
+    NotAReport,
+    #[error("an fslcal report with other files in it ({0}), which writing the report would delete")]
+    OtherFiles(String),
+}
+
+/// What every page's footer says; tells a folder fslcal wrote from one it did not.
+const FOOTER_MARK: &str = "Written by fslcal";
 
 #[cfg(test)]
 mod tests {
@@ -303,5 +350,25 @@ mod tests {
         assert!(html.contains("<td class=\"bad num\">1.0</td>"));
         assert!(dir.path().join("r/plots/a.svg").is_file());
         assert!(!html.contains("http"), "the page must not refer to the network");
+    }
+
+    #[test]
+    fn only_an_earlier_report_or_an_empty_folder_is_replaced() {
+        let dir = tempfile::tempdir().unwrap();
+        let r = dir.path().join("r");
+        assert_eq!(replaceable_report_folder(&r), Ok(()), "missing");
+        std::fs::create_dir(&r).unwrap();
+        assert_eq!(replaceable_report_folder(&r), Ok(()), "empty");
+        ReportFiles::default().write(&r, &Page::new("x")).unwrap();
+        assert_eq!(replaceable_report_folder(&r), Ok(()), "an earlier report");
+        std::fs::write(r.join("notes.txt"), b"mine").unwrap();
+        assert_eq!(replaceable_report_folder(&r), Err(ForeignFolder::OtherFiles("notes.txt".into())));
+        let photos = dir.path().join("photos");
+        std::fs::create_dir(&photos).unwrap();
+        std::fs::write(photos.join("photo_00.jpg"), b"jpeg").unwrap();
+        assert_eq!(replaceable_report_folder(&photos), Err(ForeignFolder::NotAReport));
+        let file = dir.path().join("file");
+        std::fs::write(&file, b"x").unwrap();
+        assert_eq!(replaceable_report_folder(&file), Err(ForeignFolder::NotAFolder));
     }
 }

@@ -208,6 +208,10 @@ fn verdict_and_figures(page: &mut Page, r: &ValidationReport) {
         Some((s, false)) => format!("; length error trend {s:+.2} %/m FAILS: the laser direction is off"),
         None => String::new(),
     };
+    if n == 0 {
+        page.verdict(Verdict::Rejected, "NOT JUDGED: no photo could be measured; each photo's reason is below.");
+        return;
+    }
     let verdict = if r.pass { Verdict::Accepted } else { Verdict::Rejected };
     page.verdict(
         verdict,

@@ -30,6 +30,10 @@ pub enum KeyError {
     Write { path: String, cause: std::io::Error },
     #[error("cannot read random bytes for a new key: {0}")]
     Random(std::io::Error),
+    #[error("{path}: the key id written in it ({written}) is not its key's ({actual}): the file was edited or mixed up; get the .pub again from its owner")]
+    IdMismatch { path: String, written: String, actual: String },
+    #[error("{path}: cannot create the folder: {cause}")]
+    Folder { path: String, cause: std::io::Error },
 }
 
 /// Lower-case hex of `bytes`.
@@ -74,6 +78,7 @@ pub fn generate(path: &Path, comment: &str) -> Result<[u8; 32], KeyError> {
             return Err(KeyError::Exists { path: p.display().to_string() });
         }
     }
+    create_key_folder(path)?;
     let mut seed = [0u8; 32];
     std::fs::File::open("/dev/urandom").and_then(|mut f| f.read_exact(&mut seed)).map_err(KeyError::Random)?;
     write_atomically_private(path, format!("{SECRET_TAG} {}\n", hex(&seed)).as_bytes())
@@ -100,9 +105,50 @@ pub fn read_secret(path: &Path) -> Result<[u8; 32], KeyError> {
     read_key_line(path, SECRET_TAG, "secret key")
 }
 
-/// Reads a public key file.
+/// Reads a public key file, whose key id (when written) must be its key's: a trusted file
+/// whose id was edited would otherwise show one signer's id and trust another's key.
 pub fn read_public(path: &Path) -> Result<[u8; 32], KeyError> {
-    read_key_line(path, PUBLIC_TAG, "public key")
+    let key = read_key_line(path, PUBLIC_TAG, "public key")?;
+    let text = read_text(path)?;
+    if let Some(written) = text.split_whitespace().nth(2) {
+        let actual = KeyId::of(&key).to_string();
+        if !written.eq_ignore_ascii_case(&actual) {
+            return Err(KeyError::IdMismatch { path: path.display().to_string(), written: written.into(), actual });
+        }
+    }
+    Ok(key)
+}
+
+/// A warning when the secret key at `path` can be read by others than its owner (as ssh
+/// warns of an unprotected private key): anyone who can read it can sign calibrations.
+#[cfg(unix)]
+pub fn exposure_warning(path: &Path) -> Option<String> {
+    use std::os::unix::fs::PermissionsExt;
+    let mode = std::fs::metadata(path).ok()?.permissions().mode() & 0o777;
+    (mode & 0o077 != 0).then(|| {
+        format!(
+            "{}: the secret key is readable by others (mode {mode:04o}): anyone who can read it can sign calibrations; `chmod 600 {}`",
+            path.display(),
+            path.display()
+        )
+    })
+}
+
+#[cfg(not(unix))]
+pub fn exposure_warning(_path: &Path) -> Option<String> {
+    None
+}
+
+/// Creates the folders a new key goes into, owner-only (0700) as `~/.ssh` is: the first
+/// `fslcal keygen --out ~/.fslcal/lead` needs `~/.fslcal`. Folders already there are left
+/// as they are.
+fn create_key_folder(path: &Path) -> Result<(), KeyError> {
+    let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty() && !d.exists()) else { return Ok(()) };
+    let mut builder = std::fs::DirBuilder::new();
+    builder.recursive(true);
+    #[cfg(unix)]
+    std::os::unix::fs::DirBuilderExt::mode(&mut builder, 0o700);
+    builder.create(dir).map_err(|cause| KeyError::Folder { path: dir.display().to_string(), cause })
 }
 
 /// A key someone chose to trust, and the file it came from.

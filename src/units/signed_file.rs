@@ -57,6 +57,10 @@ pub fn unit_id(text: &str) -> Result<String, UnitFileError> {
 /// Returns the file's length in bytes.
 pub fn sign_to_file(contents: &UnitFile<'_>, key_path: &Path, out: &Path) -> Result<usize, UnitFileError> {
     let secret = keys::read_secret(key_path)?;
+    // Every signature goes through here: the one place to warn, as ssh does.
+    if let Some(w) = keys::exposure_warning(key_path) {
+        eprintln!("fslcal: warning: {w}");
+    }
     let mut buf = [0u8; MAX_FILE_BYTES];
     let n = contents.sign(&secret, &mut buf).map_err(UnitFileError::at(out))?;
     write_atomically(out, &buf[..n])

@@ -22,10 +22,13 @@ use std::path::Path;
 
 #[derive(Debug, thiserror::Error)]
 pub enum VisionError {
-    #[error("{path}: cannot read: {source}")]
-    Io { path: String, source: std::io::Error },
-    #[error("{path}: not a readable image (corrupt, truncated, or not JPEG/PNG/TIFF)")]
+    /// The cause is in the message, not a `source`, or `{:#}` would say it twice.
+    #[error("{path}: cannot read: {cause}")]
+    Io { path: String, cause: std::io::Error },
+    #[error("{path}: not a readable image (corrupt, truncated, or not a JPEG, PNG or Olympus ORF raw)")]
     Undecodable { path: String },
+    #[error("{path}: a TIFF image, which fslcal does not read; it reads JPEG, PNG and Olympus ORF raw: convert the photo to PNG")]
+    Tiff { path: String },
     #[error("{path}: truncated JPEG (no end-of-image marker); copy the file from the card again")]
     Truncated { path: String },
     #[error("{path}: OpenCV failed: {message}")]
@@ -65,8 +68,7 @@ pub struct Photo {
 
 impl<'p> EncodedPhoto<'p> {
     pub fn read(path: &'p Path) -> Result<Self, VisionError> {
-        let bytes =
-            std::fs::read(path).map_err(|source| VisionError::Io { path: path.display().to_string(), source })?;
+        let bytes = std::fs::read(path).map_err(|cause| VisionError::Io { path: path.display().to_string(), cause })?;
         if bytes.is_empty() {
             return Err(VisionError::Undecodable { path: path.display().to_string() });
         }
@@ -75,6 +77,13 @@ impl<'p> EncodedPhoto<'p> {
             let frame = RawFrame::decode(bytes, path)?;
             let balance = GreyWorld::of(&frame);
             return Ok(EncodedPhoto { path, source: Source::Raw { frame, balance }, exif });
+        }
+        // Named as a raw but not one: a raw's own message, not the JPEG reader's.
+        if path.extension().is_some_and(|e| e.eq_ignore_ascii_case("orf")) {
+            return Err(RawError::NotOrf { path: path.display().to_string() }.into());
+        }
+        if bytes.starts_with(b"II*\0") || bytes.starts_with(b"MM\0*") {
+            return Err(VisionError::Tiff { path: path.display().to_string() });
         }
         // libjpeg fills a truncated JPEG's missing rows with grey and calls it a photo; a
         // half-copied file must say so instead of "no board found".

@@ -219,7 +219,7 @@ pub enum SlateMiss {
     Weak { inliers: usize, matches: usize, needed: usize },
     #[error("implausible slate pose: {0}")]
     Implausible(String),
-    #[error("{0}")]
+    #[error(transparent)]
     Vision(#[from] VisionError),
 }
 

@@ -184,8 +184,12 @@ impl LaserLine {
     /// covariance alone (`covariance` of [`LaserLine::to_params`], row-major): the pixel is
     /// held fixed and the line's parameters vary. First-order propagation `g^T C g` with the
     /// gradient `g` of depth by central differences, which the closed form makes exact to
-    /// well below the covariance's own precision.
+    /// well below the covariance's own precision. `None` for an unknown covariance (see
+    /// [`covariance_known`]): no figure at all rather than a false zero.
     pub fn depth_sigma_at_pixel(&self, camera: &CameraModel, covariance: &[[f64; 4]; 4], dot_px: Vec2) -> Option<f64> {
+        if !covariance_known(covariance) {
+            return None;
+        }
         let ray = camera.ray(dot_px)?;
         let p = self.to_params();
         let mut g = [0.0; 4];
@@ -211,6 +215,13 @@ impl LaserLine {
     pub fn depth_sigma_at_depth(&self, camera: &CameraModel, covariance: &[[f64; 4]; 4], z_m: f64) -> Option<f64> {
         self.depth_sigma_at_pixel(camera, covariance, self.pixel_at_depth(camera, z_m)?)
     }
+}
+
+/// Whether a laser covariance says anything. An all-zero covariance is what a calibration
+/// imported without its fit's figures carries (the lab's `.pkg` has none): *unknown*, never
+/// certainty, so no sigma may be computed from it (it would read as ±0 mm).
+pub fn covariance_known(covariance: &[[f64; 4]; 4]) -> bool {
+    covariance.iter().flatten().any(|v| *v != 0.0)
 }
 
 #[cfg(test)]
@@ -272,6 +283,18 @@ mod tests {
         // Depth error of a slope error grows about as z^2 / baseline.
         let far = l.depth_sigma_at_depth(&c, &cov, 4.0).unwrap();
         assert!(far > 3.5 * sigma && far < 4.5 * sigma, "{sigma} {far}");
+    }
+
+    #[test]
+    fn an_all_zero_covariance_is_unknown_not_certainty() {
+        let (c, l) = (cam(), laser());
+        let unknown = [[0.0; 4]; 4];
+        assert!(!covariance_known(&unknown));
+        assert_eq!(l.depth_sigma_at_depth(&c, &unknown, 2.0), None, "never a sigma of 0 m");
+        let mut tiny = unknown;
+        tiny[3][3] = 1e-30;
+        assert!(covariance_known(&tiny));
+        assert!(l.depth_sigma_at_depth(&c, &tiny, 2.0).is_some_and(|s| s >= 0.0));
     }
 
     #[test]

@@ -14,8 +14,9 @@ use std::sync::Arc;
 
 #[derive(Debug, thiserror::Error)]
 pub enum RawError {
-    #[error("{path}: cannot read: {source}")]
-    Io { path: String, source: std::io::Error },
+    /// The cause is in the message, not a `source`, or `{:#}` would say it twice.
+    #[error("{path}: cannot read: {cause}")]
+    Io { path: String, cause: std::io::Error },
     #[error("{path}: truncated raw file ({have} of {need} bytes); copy the file from the card again")]
     Truncated { path: String, have: u64, need: u64 },
     #[error("{path}: not an Olympus ORF raw file (no ORF header); fslcal reads ORF, JPEG and PNG")]
@@ -179,7 +180,7 @@ impl RawFrame {
 
     /// Reads and decodes an ORF file.
     pub fn read(path: &Path) -> Result<RawFrame, RawError> {
-        let bytes = std::fs::read(path).map_err(|source| RawError::Io { path: path.display().to_string(), source })?;
+        let bytes = std::fs::read(path).map_err(|cause| RawError::Io { path: path.display().to_string(), cause })?;
         Self::decode(bytes, path)
     }
 
