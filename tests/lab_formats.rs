@@ -587,7 +587,8 @@ fn import_refuses_wrong_units_and_naive_times_and_says_what_it_changed() {
     assert_eq!(i["camera_identity"]["serial"], "BHV204411", "the 2023 metadata's serial_number is carried");
     assert_eq!(i["provenance"], "imported-pkg");
     // --camera-serial still wins over the file.
-    let (o, out) = import(&good, &["--timezone", "-07:00", "--camera-serial", "BHX000001"]);
+    // The same output again: replacing a signed file takes --force.
+    let (o, out) = import(&good, &["--timezone", "-07:00", "--camera-serial", "BHX000001", "--force"]);
     ok(&o);
     assert_eq!(json_out(&fslcal(&["inspect", s(&out), "--json"]))["camera_identity"]["serial"], "BHX000001");
 
@@ -595,16 +596,13 @@ fn import_refuses_wrong_units_and_naive_times_and_says_what_it_changed() {
     let cm = laser_at("laser-cm.pkg", POSITION_M.map(|v| v * 100.0), axis());
     let err = refusal(&import(&cm, &["--timezone", "UTC"]).0);
     assert!(
-        err.contains("11.4")
-            && err.contains("78-145 mm")
-            && err.contains("centimetres")
-            && err.contains("--outside-baseline"),
+        err.contains("11.4") && err.contains("78-145 mm") && err.contains("centimetres") && err.contains("--force"),
         "{err}"
     );
     let mm = laser_at("laser-mm.pkg", POSITION_M.map(|v| v * 1000.0), axis());
     assert!(refusal(&import(&mm, &["--timezone", "UTC"]).0).contains("millimetres"));
-    let (o, _) = import(&cm, &["--timezone", "UTC", "--outside-baseline"]);
-    assert!(String::from_utf8_lossy(&ok(&o).stderr).contains("signed anyway (--outside-baseline)"));
+    let (o, _) = import(&cm, &["--timezone", "UTC", "--force"]);
+    assert!(String::from_utf8_lossy(&ok(&o).stderr).contains("signed anyway (--force)"));
 
     // A non-unit axis pointing backwards is turned round and normalised, and it is said.
     let a = axis();
@@ -616,8 +614,8 @@ fn import_refuses_wrong_units_and_naive_times_and_says_what_it_changed() {
     let i = json_out(&fslcal(&["inspect", s(&out), "--json"]));
     let got: Vec<f64> = i["laser"]["direction"].as_array().unwrap().iter().map(|x| x.as_f64().unwrap()).collect();
     assert!(got.iter().zip(a).all(|(g, w)| (g - w).abs() < 1e-15), "{got:?}");
-    // A unit axis that is already right says nothing.
-    let (o, _) = import(&good, &["--timezone", "UTC"]);
+    // A unit axis that is already right says nothing (a fresh output: nothing replaced).
+    let (o, _) = import(&laser_at("laser-again.pkg", POSITION_M, axis()), &["--timezone", "UTC"]);
     assert!(String::from_utf8_lossy(&ok(&o).stderr).trim().is_empty());
 }
 

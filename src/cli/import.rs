@@ -51,14 +51,10 @@ pub struct ImportArgs {
     timezone: Option<jiff::tz::TimeZone>,
 
     /// Plausible camera-to-laser baseline for the rig, millimetres (as `fslcal laser`): a
-    /// laser position outside it (centimetres or millimetres where metres belong) is refused.
+    /// laser position outside it (centimetres or millimetres where metres belong) is refused
+    /// unless --force (which also replaces a signed file already at --out).
     #[arg(long, value_name = "MIN,MAX", default_value = "78,145", value_parser = super::parse::range_mm)]
     baseline_range_mm: (f64, f64),
-
-    /// Sign a rig whose baseline lies outside --baseline-range-mm (`--force` is for
-    /// replacing an existing signed file).
-    #[arg(long)]
-    outside_baseline: bool,
 
     /// The unit file to write.
     #[arg(long, value_name = "FILE.fslcal")]
@@ -97,7 +93,7 @@ pub fn run(args: ImportArgs) -> anyhow::Result<ExitCode> {
     let (lens, lens_path, laser, laser_path) = read_pair(&args)?;
     let (camera, frame_note) = developed(&lens, args.lens_frame, lens_path)?;
     let range_m = (args.baseline_range_mm.0, args.baseline_range_mm.1);
-    let (line, notes) = lab_files::laser_line(&laser, laser_path, range_m, args.outside_baseline)?;
+    let (line, notes) = lab_files::laser_line(&laser, laser_path, range_m, args.signing.force)?;
     for n in &notes {
         eprintln!("warning: {n}");
     }

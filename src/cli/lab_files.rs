@@ -199,9 +199,9 @@ pub fn laser_line(
             unit_hint(baseline_m, baseline_range_m)
         );
         if !force {
-            bail!("{why}; pass --outside-baseline to sign a rig outside them (--baseline-range-mm sets the range)");
+            bail!("{why}; pass --force to sign a rig outside them (--baseline-range-mm sets the range)");
         }
-        notes.push(format!("{why}; signed anyway (--outside-baseline)"));
+        notes.push(format!("{why}; signed anyway (--force)"));
     }
     Ok((line, notes))
 }
@@ -245,7 +245,7 @@ mod tests {
         let a = [0.0, 0.0, 1.0];
         let e = laser_line(&laser([-4.12, -10.67, 0.0], a), p, (0.078, 0.145), false).unwrap_err().to_string();
         assert!(e.contains("11.44 m baseline") && e.contains("as centimetres it would be 114.4 mm"), "{e}");
-        assert!(e.contains("--outside-baseline"), "{e}");
+        assert!(e.contains("--force"), "{e}");
         let e = laser_line(&laser([-41.2, -106.7, 0.0], a), p, (0.078, 0.145), false).unwrap_err().to_string();
         assert!(e.contains("as millimetres it would be 114.4 mm"), "{e}");
         let (_, notes) = laser_line(&laser([-4.12, -10.67, 0.0], a), p, (0.078, 0.145), true).unwrap();
