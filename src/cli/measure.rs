@@ -184,6 +184,7 @@ fn search_dot(_cal: &Calibration, _photo: &Path) -> Result<Vec2, Withheld> {
 
 /// A photo's size in pixels: a JPEG's or PNG's from its header, a raw's from its active area.
 fn photo_size(photo: &Path) -> anyhow::Result<(u32, u32)> {
+    crate::photo::counter::count(crate::photo::counter::Event::HeaderRead);
     match image::image_dimensions(photo) {
         Ok(size) => Ok(size),
         #[cfg(feature = "vision")]

@@ -72,6 +72,8 @@ pub fn laser_image_px(camera: &CameraModel, laser: &LaserLine) -> Vec<Vec<Vec2>>
 /// Reads `photo`, scales it to `width_px` wide and draws `overlay` on it.
 pub fn draw(photo: &Path, width_px: u32, overlay: &Overlay) -> Result<Thumbnail, ThumbnailError> {
     let read = |message: String| ThumbnailError::Read { path: photo.display().to_string(), message };
+    crate::photo::counter::count(crate::photo::counter::Event::FileRead);
+    crate::photo::counter::count(crate::photo::counter::Event::FullDecode);
     let img = ImageReader::open(photo)
         .map_err(|e| read(e.to_string()))?
         .with_guessed_format()

@@ -12,6 +12,7 @@ pub use pose::{solve_pose, TargetPose};
 pub use slate::{find_slate, Features, SlateDetection, SlateMiss, SlateModel, MIN_INLIERS};
 
 use crate::dot::candidates::{ChannelOrder, ColourView};
+use crate::photo::counter::{count, Event};
 use crate::photo::exif::PhotoExif;
 use crate::photo::raw::develop::{binned_grey, for_each_row, write_row, GreyWorld, Order, ToneCurve};
 use crate::photo::raw::{is_orf, RawError, RawFrame};
@@ -65,6 +66,7 @@ pub struct Photo {
 
 impl<'p> EncodedPhoto<'p> {
     pub fn read(path: &'p Path) -> Result<Self, VisionError> {
+        count(Event::FileRead);
         let bytes =
             std::fs::read(path).map_err(|source| VisionError::Io { path: path.display().to_string(), source })?;
         if bytes.is_empty() {
@@ -95,6 +97,11 @@ impl<'p> EncodedPhoto<'p> {
         let Source::Encoded(buf) = &self.source else {
             unreachable!("raw photos are developed, not decoded by OpenCV");
         };
+        let reduced = matches!(
+            flags,
+            imgcodecs::IMREAD_REDUCED_GRAYSCALE_2 | imgcodecs::IMREAD_REDUCED_GRAYSCALE_4 | imgcodecs::IMREAD_REDUCED_GRAYSCALE_8
+        );
+        count(if reduced { Event::ReducedDecode } else { Event::FullDecode });
         let m = imgcodecs::imdecode(buf, flags).map_err(|e| VisionError::cv(self.path, e))?;
         if m.empty() {
             return Err(VisionError::Undecodable { path: self.path.display().to_string() });
