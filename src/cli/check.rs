@@ -6,6 +6,7 @@ use crate::calibration;
 use crate::calibration::drift::{check, CheckOutcome, DriftCheck, FLAG_SIGMAS};
 use crate::documents::{self, check::CheckDocument};
 use crate::photo::identity::ExpectedCamera;
+use crate::photo::thumbnails::Keeping;
 use crate::report::{self, check::CheckReport};
 use anyhow::{bail, Context};
 use std::path::{Path, PathBuf};
@@ -50,6 +51,8 @@ pub fn run(args: CheckArgs) -> anyhow::Result<ExitCode> {
         }
     }
     args.body.check(&ExpectedCamera::from(&cal), &args.photos)?;
+    // The report's thumbnails come from each photo's one decode, kept while the run lasts.
+    let _thumbnails = args.report.is_some().then(|| Keeping::start(report::THUMBNAIL_WIDTH_PX));
     let bar = progress::bar(args.photos.len(), "photos", args.json);
     let result = check(&cal, &args.photos, &|| bar.inc(1));
     bar.finish_and_clear();

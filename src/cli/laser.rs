@@ -14,6 +14,7 @@ use crate::laser::gates::GateResult;
 use crate::laser::pipeline::{calibrate, HandDots, LaserCalibration, LaserError, LaserJob, PhotoReport, PhotoStatus};
 use crate::laser::target::{Target, TargetArg};
 use crate::photo::identity::{photos_exif, ExpectedCamera, PhotosExif};
+use crate::photo::thumbnails::Keeping;
 use crate::report::{
     self,
     laser::{LaserOutcome, LaserReport},
@@ -130,6 +131,8 @@ pub fn run(args: LaserArgs) -> anyhow::Result<ExitCode> {
         keys::read_secret(check.key.as_deref().unwrap_or(out))?;
     }
     let job = job(&args, camera, &expected)?;
+    // The report's thumbnails come from each photo's one decode, kept while the run lasts.
+    let _thumbnails = args.report.is_some().then(|| Keeping::start(report::THUMBNAIL_WIDTH_PX));
     let cal = fit(&args, &job)?;
     // Read once: the JSON reports it and a signed file records the body and depth from it.
     let identity = photos_exif(&args.photos);

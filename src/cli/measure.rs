@@ -170,7 +170,7 @@ fn search_dot(cal: &Calibration, photo: &Path) -> Result<Vec2, Withheld> {
     use crate::dot::on_line::{find_dot_on_laser_line, LineSearch};
     let no_dot = |why: DotMissing| Withheld::NoDot { why: why.into() };
     let decoded = crate::vision::EncodedPhoto::read(photo)
-        .and_then(|p| p.decode_full())
+        .and_then(|p| p.decode())
         .map_err(|e| no_dot(DotMissing::Unreadable { message: e.to_string() }))?;
     find_dot_on_laser_line(&decoded.colour(), &cal.camera, &cal.laser, &LineSearch::default())
         .map(|d| d.pixel)

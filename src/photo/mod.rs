@@ -5,3 +5,4 @@ pub mod counter;
 pub mod exif;
 pub mod identity;
 pub mod raw;
+pub mod thumbnails;

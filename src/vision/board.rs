@@ -3,11 +3,12 @@
 //! sized from its own neighbourhood, because a fixed 11x11 window reaches into the next
 //! corner on a far, small board and biases the corners (and so the focal length).
 
-use super::{EncodedPhoto, Photo, VisionError};
+use super::{Photo, VisionError};
 use fslcal_core::Vec2;
 use opencv::core::{Mat, Point2f, Size, TermCriteria, TermCriteria_Type, Vector};
 use opencv::prelude::*;
 use opencv::{calib3d, imgproc};
+use std::path::Path;
 
 /// What the search found, before refinement.
 pub struct BoardSearch {
@@ -23,25 +24,19 @@ fn detect(grey: &Mat, cols: u32, rows: u32, flags: i32) -> Result<Option<Vec<Poi
     Ok(found.then(|| corners.to_vec()))
 }
 
-/// Finds a `cols x rows` inner-corner checkerboard: at 1/4 size, then 1/2 (a far board's
-/// squares are too small at 1/4), then, for small images, at full size.
-pub fn find_checkerboard(photo: &EncodedPhoto, cols: u32, rows: u32) -> Result<Option<BoardSearch>, VisionError> {
+/// Finds a `cols x rows` inner-corner checkerboard in the photo at `path`: at 1/4 size,
+/// then 1/2 (a far board's squares are too small at 1/4), then, for small images, at full
+/// size; every image from the photo's one decode.
+pub fn find_checkerboard(photo: &Photo, path: &Path, cols: u32, rows: u32) -> Result<Option<BoardSearch>, VisionError> {
     let flags = calib3d::CALIB_CB_ADAPTIVE_THRESH | calib3d::CALIB_CB_NORMALIZE_IMAGE | calib3d::CALIB_CB_FAST_CHECK;
-    let full = photo.decode_reduced_grey(1).ok();
+    let cv = |e| VisionError::cv(path, e);
     for factor in [4u32, 2, 1] {
-        let grey = if factor == 1 {
-            match &full {
-                Some(g) => g.clone(),
-                None => continue,
-            }
-        } else {
-            photo.decode_reduced_grey(factor)?
-        };
+        let grey = photo.reduced_grey(factor).map_err(cv)?;
         // Below ~480 px wide a further reduction loses the board; search at what we have.
         if factor > 1 && grey.cols() < 400 {
             continue;
         }
-        let found = detect(&grey, cols, rows, flags).map_err(|e| VisionError::cv(photo.path, e))?;
+        let found = detect(grey, cols, rows, flags).map_err(cv)?;
         if let Some(pts) = found {
             // A reduced JPEG pixel (i, j) covers full pixels [f i, f i + f); its centre is at
             // f i + (f - 1) / 2 in the pixel-centre convention.
@@ -51,7 +46,7 @@ pub fn find_checkerboard(photo: &EncodedPhoto, cols: u32, rows: u32) -> Result<O
             return Ok(Some(BoardSearch { corners_px, found_at_factor: factor }));
         }
         // A full-resolution pass only pays for small images (e.g. 640x480).
-        if factor == 2 && full.as_ref().is_none_or(|g| g.cols() > 1600) {
+        if factor == 2 && photo.width() > 1600 {
             break;
         }
     }
@@ -98,7 +93,7 @@ pub fn refine_corners(photo: &Photo, corners: &mut [Vec2], cols: u32, rows: u32)
     for (half, idx) in by_half {
         let mut pts: Vector<Point2f> =
             idx.iter().map(|&i| Point2f::new(corners[i].x as f32, corners[i].y as f32)).collect();
-        imgproc::corner_sub_pix(photo.grey(), &mut pts, Size::new(half, half), Size::new(-1, -1), criteria)?;
+        imgproc::corner_sub_pix(photo.grey()?, &mut pts, Size::new(half, half), Size::new(-1, -1), criteria)?;
         for (k, &i) in idx.iter().enumerate() {
             let p = pts.get(k)?;
             corners[i] = Vec2::new(p.x as f64, p.y as f64);
