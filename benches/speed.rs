@@ -64,7 +64,8 @@ fn summarise(runs: &[Run]) -> Run {
 }
 
 fn load_average() -> String {
-    std::fs::read_to_string("/proc/loadavg").map_or("?".into(), |s| s.split_whitespace().take(3).collect::<Vec<_>>().join(" "))
+    std::fs::read_to_string("/proc/loadavg")
+        .map_or("?".into(), |s| s.split_whitespace().take(3).collect::<Vec<_>>().join(" "))
 }
 
 /// CPU seconds of this process's waited-for children (`cutime + cstime`).
@@ -81,7 +82,8 @@ fn children_cpu_s() -> f64 {
 
 fn vm_hwm_mb(pid: u32) -> Option<f64> {
     let status = std::fs::read_to_string(format!("/proc/{pid}/status")).ok()?;
-    let kb: f64 = status.lines().find_map(|l| l.strip_prefix("VmHWM:"))?.trim().trim_end_matches("kB").trim().parse().ok()?;
+    let kb: f64 =
+        status.lines().find_map(|l| l.strip_prefix("VmHWM:"))?.trim().trim_end_matches("kB").trim().parse().ok()?;
     Some(kb / 1024.0)
 }
 
@@ -272,7 +274,10 @@ impl Bench {
         let py = python();
         let script = Path::new(env!("CARGO_MANIFEST_DIR")).join("benches/laser_opencv.py");
         let mut py_args = strings(["--camera".as_ref(), self.set.camera_file.as_os_str()]);
-        py_args.extend(strings(["--board".to_string(), format!("{}x{}@{}", self.board.inner_cols, self.board.inner_rows, self.board.square_m * 1e3)]));
+        py_args.extend(strings([
+            "--board".to_string(),
+            format!("{}x{}@{}", self.board.inner_cols, self.board.inner_rows, self.board.square_m * 1e3),
+        ]));
         py_args.extend(strings(["--dots".as_ref(), self.dots.as_os_str()]));
         py_args.extend(strings(&self.set.photos));
         let (mut before, mut after, mut script_runs) = (Vec::new(), Vec::new(), Vec::new());
@@ -324,7 +329,9 @@ impl Bench {
         // The plain run again, paired with the report runs, for an honest ratio.
         let (plain_before, plain_after) = self.bins.time(&plain_args, self.rounds);
         let _ = plain;
-        let over = |r: &Run, p: &Run| format!("+{:.0}% wall, +{:.0}% CPU", 100.0 * (r.wall_s / p.wall_s - 1.0), 100.0 * (r.cpu_s / p.cpu_s - 1.0));
+        let over = |r: &Run, p: &Run| {
+            format!("+{:.0}% wall, +{:.0}% CPU", 100.0 * (r.wall_s / p.wall_s - 1.0), 100.0 * (r.cpu_s / p.cpu_s - 1.0))
+        };
         println!("laser --report, {} photos: {}", self.set.photos.len(), pair(&before, &after, fmt));
         let b = before.zip(plain_before).map(|(r, p)| over(&r, &p));
         let a = over(&after, &plain_after);
@@ -440,7 +447,10 @@ fn measure(bench: &Bench) {
             let name = format!("dive_{c:03}_{i}");
             let photo = dive.join(format!("{name}.jpg"));
             link(p, &photo);
-            link(&set.dir.join("masks").join(p.file_stem().unwrap()).with_extension("png"), &dive.join("masks").join(format!("{name}.png")));
+            link(
+                &set.dir.join("masks").join(p.file_stem().unwrap()).with_extension("png"),
+                &dive.join("masks").join(format!("{name}.png")),
+            );
             let d = t.dot.as_ref().unwrap().pixel;
             dots += &format!("{name}.jpg,{},{}\n", d[0], d[1]);
             photos.push(photo);
@@ -486,30 +496,36 @@ fn slowest(bench: &Bench) {
     println!("one photo on one thread (target under 2 s each):");
     bench.slowest_photo("of the 16", &bench.set.camera_file, &bench.board, &bench.set.photos);
     let board = board_13x9();
-    let scenes: Vec<SmallBoard> = [(Tint::Green, 3.0, 0.35), (Tint::Green, 4.0, 0.3), (Tint::Brown, 3.0, 0.35), (Tint::Brown, 4.0, 0.3)]
-        .iter()
-        .enumerate()
-        .map(|(i, &(tint, depth_m, transmission))| SmallBoard {
-            board: Some(board),
-            depth_m,
-            yaw_rad: 0.3,
-            at: (0.35 - 0.2 * i as f64, -0.2 + 0.1 * i as f64),
-            tint,
-            transmission,
-            seed: 40 + i as u64,
-        })
-        .chain([Tint::Green, Tint::Brown].iter().enumerate().map(|(i, &tint)| SmallBoard {
-            board: None,
-            depth_m: 3.0,
-            yaw_rad: 0.0,
-            at: (0.0, 0.0),
-            tint,
-            transmission: 0.35,
-            seed: 50 + i as u64,
-        }))
-        .collect();
+    let scenes: Vec<SmallBoard> =
+        [(Tint::Green, 3.0, 0.35), (Tint::Green, 4.0, 0.3), (Tint::Brown, 3.0, 0.35), (Tint::Brown, 4.0, 0.3)]
+            .iter()
+            .enumerate()
+            .map(|(i, &(tint, depth_m, transmission))| SmallBoard {
+                board: Some(board),
+                depth_m,
+                yaw_rad: 0.3,
+                at: (0.35 - 0.2 * i as f64, -0.2 + 0.1 * i as f64),
+                tint,
+                transmission,
+                seed: 40 + i as u64,
+            })
+            .chain([Tint::Green, Tint::Brown].iter().enumerate().map(|(i, &tint)| SmallBoard {
+                board: None,
+                depth_m: 3.0,
+                yaw_rad: 0.0,
+                at: (0.0, 0.0),
+                tint,
+                transmission: 0.35,
+                seed: 50 + i as u64,
+            }))
+            .collect();
     let small = small_board_set("bench-speed-small-boards", &scenes);
-    bench.slowest_photo("small 13x9 boards and no board, green and brown water", &small.camera_file, &board, &small.photos);
+    bench.slowest_photo(
+        "small 13x9 boards and no board, green and brown water",
+        &small.camera_file,
+        &board,
+        &small.photos,
+    );
 }
 
 /// Peak memory of `fslcal laser --report` over 300 photos (the 16 linked again and again).
