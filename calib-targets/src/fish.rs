@@ -55,7 +55,7 @@ impl FishShape {
     }
 
     /// A point on the spine at arc length `s` in the plane frame.
-    fn spine_point(&self, s: f64) -> Vec2 {
+    pub(crate) fn spine_point(&self, s: f64) -> Vec2 {
         let k = self.bend_rad / self.fork_length_m;
         if k.abs() < 1e-9 {
             return Vec2::new(s, 0.0);
@@ -64,14 +64,19 @@ impl FishShape {
     }
 
     /// Whether a plane-frame point is on the fish.
-    fn contains(&self, q: Vec2) -> bool {
+    pub(crate) fn contains(&self, q: Vec2) -> bool {
+        self.part_at(q).is_some()
+    }
+
+    /// Which part of the fish a plane-frame point is on, `None` off the fish.
+    pub(crate) fn part_at(&self, q: Vec2) -> Option<FishPart> {
         let (s, w) = self.spine_coordinates(q);
         let l = self.fork_length_m;
         let t = s / l;
         let body = 0.5 * self.depth * l;
         let lobes = self.fork_depth * l;
         if !(0.0..=1.0 + self.fork_depth).contains(&t) {
-            return false;
+            return None;
         }
         let half = if t < DEEPEST {
             // A rounded head.
@@ -89,13 +94,23 @@ impl FishShape {
             let half = body * PEDUNCLE_DEPTH + (span - body * PEDUNCLE_DEPTH) * u.clamp(0.0, 1.0);
             let rear = l + lobes * (w.abs() / (0.8 * span)).min(1.0);
             if s > rear {
-                return false;
+                return None;
             }
             half
         };
         // A dorsal fin on the outside of the bend (w < 0), between 35% and 62% of the length.
         let dorsal = if (0.35..0.62).contains(&t) && w < 0.0 { 0.35 * body * (1.0 - (t - 0.35) / 0.27) } else { 0.0 };
-        w.abs() <= half || (w < 0.0 && -w <= half + dorsal)
+        if w.abs() <= half {
+            Some(if t < FIN_START {
+                FishPart::Body { along: t, across: w / half.max(1e-12) }
+            } else {
+                FishPart::CaudalFin
+            })
+        } else if w < 0.0 && -w <= half + dorsal {
+            Some(FishPart::DorsalFin)
+        } else {
+            None
+        }
     }
 
     /// Albedo at a target-frame point (the fish's plane frame), `None` off the fish.
@@ -104,7 +119,7 @@ impl FishShape {
     }
 
     /// Points around the outline, plane frame, for keeping the fish in the frame.
-    fn outline_samples(&self) -> Vec<Vec2> {
+    pub(crate) fn outline_samples(&self) -> Vec<Vec2> {
         let l = self.fork_length_m;
         let k = self.bend_rad / l;
         let mut out = Vec::new();
@@ -118,6 +133,19 @@ impl FishShape {
         }
         out
     }
+}
+
+/// A part of a fish's silhouette, for painting it.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(crate) enum FishPart {
+    /// Head, body and peduncle: `along` the spine as a share of the fork length, `across`
+    /// from -1 (the outside of the bend, where the dorsal fin is) to 1.
+    Body {
+        along: f64,
+        across: f64,
+    },
+    CaudalFin,
+    DorsalFin,
 }
 
 /// Where a fish is and which way it swims.
@@ -134,7 +162,7 @@ pub struct FishPose {
 
 impl FishPose {
     /// Camera-frame point of a plane-frame point.
-    fn camera_point(&self, q: Vec2) -> Vec3 {
+    pub(crate) fn camera_point(&self, q: Vec2) -> Vec3 {
         self.t_cam_target().apply(&Vec3::new(q.x, q.y, 0.0))
     }
 
@@ -232,7 +260,7 @@ pub fn render_fish(spec: &FishSpec) -> RenderedFish {
 }
 
 /// Whether the whole fish is in the image, `margin_px` from the border.
-fn fish_in_frame(camera: &CameraModel, shape: &FishShape, pose: &FishPose, margin_px: f64) -> bool {
+pub(crate) fn fish_in_frame(camera: &CameraModel, shape: &FishShape, pose: &FishPose, margin_px: f64) -> bool {
     shape.outline_samples().iter().all(|q| {
         camera.project(&pose.camera_point(*q)).is_some_and(|p| {
             p.x >= margin_px

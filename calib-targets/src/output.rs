@@ -3,6 +3,8 @@
 use crate::fish::RenderedFish;
 use crate::scene::RenderedScene;
 use fslcal_core::CameraModel;
+use image::RgbImage;
+use serde::Serialize;
 use std::fs::File;
 use std::io::{self, BufWriter, Write};
 use std::path::Path;
@@ -33,15 +35,28 @@ fn write_atomically(path: &Path, write: impl FnOnce(&mut BufWriter<&File>) -> io
 
 /// Writes `DIR/NAME.jpg` and `DIR/NAME.truth.json`.
 pub fn write_scene(dir: &Path, name: &str, scene: &RenderedScene) -> io::Result<()> {
+    write_photo(dir, name, &scene.image, JPEG_QUALITY, &scene.truth)
+}
+
+/// Writes `DIR/NAME.jpg` at JPEG quality `quality` and its truth as `DIR/NAME.truth.json`.
+pub fn write_photo(dir: &Path, name: &str, image: &RgbImage, quality: u8, truth: &impl Serialize) -> io::Result<()> {
     write_atomically(&dir.join(format!("{name}.jpg")), |w| {
-        image::codecs::jpeg::JpegEncoder::new_with_quality(w, JPEG_QUALITY)
-            .encode_image(&scene.image)
-            .map_err(io::Error::other)
+        image::codecs::jpeg::JpegEncoder::new_with_quality(w, quality).encode_image(image).map_err(io::Error::other)
     })?;
-    write_atomically(&dir.join(format!("{name}.truth.json")), |w| {
-        serde_json::to_writer_pretty(&mut *w, &scene.truth).map_err(io::Error::other)?;
+    write_json(&dir.join(format!("{name}.truth.json")), truth)
+}
+
+/// Writes pretty JSON and a newline, atomically.
+pub fn write_json(path: &Path, value: &impl Serialize) -> io::Result<()> {
+    write_atomically(path, |w| {
+        serde_json::to_writer_pretty(&mut *w, value).map_err(io::Error::other)?;
         w.write_all(b"\n")
     })
+}
+
+/// Writes a PNG atomically.
+pub fn write_png(path: &Path, image: &RgbImage) -> io::Result<()> {
+    write_atomically(path, |w| image.write_to(w, image::ImageFormat::Png).map_err(io::Error::other))
 }
 
 /// Writes `DIR/NAME.jpg`, its mask `DIR/NAME_mask.png` and `DIR/NAME.truth.json`.

@@ -37,18 +37,18 @@ impl FromStr for Water {
 }
 
 /// Optical properties of the water, per channel (R, G, B).
-struct WaterOptics {
+pub(crate) struct WaterOptics {
     /// Attenuation coefficient, 1/m.
-    attenuation_per_m: [f64; 3],
+    pub attenuation_per_m: [f64; 3],
     /// Backscatter veil at infinite range, 8-bit levels.
-    veil: [f64; 3],
+    pub veil: [f64; 3],
     /// Gaussian blur of the whole image, pixels.
-    blur_sigma_px: f64,
+    pub blur_sigma_px: f64,
     /// Sensor noise, 8-bit levels, 1 sigma.
-    noise_levels: f64,
+    pub noise_levels: f64,
     /// Forward scatter around the laser dot: halo width factor and relative strength.
-    halo_width: f64,
-    halo_strength: f64,
+    pub halo_width: f64,
+    pub halo_strength: f64,
 }
 
 impl Water {
@@ -217,14 +217,14 @@ impl RayGrid {
 const WHITE: f64 = 0.85;
 const BLACK: f64 = 0.06;
 /// Light falling on the scene, 8-bit levels for a perfect white at zero range.
-const ILLUMINATION: f64 = 265.0;
+pub(crate) const ILLUMINATION: f64 = 265.0;
 /// The background (sand and reef) sits this far behind everything.
 const BACKGROUND_RANGE_M: f64 = 7.0;
 /// Laser: radiance of the dot on white at zero range before divergence, 8-bit levels; the
 /// beam's diameter at the exit and its full divergence.
-const LASER_RADIANCE: f64 = 1200.0;
-const BEAM_DIAMETER_M: f64 = 0.003;
-const BEAM_DIVERGENCE_RAD: f64 = 0.0008;
+pub(crate) const LASER_RADIANCE: f64 = 1200.0;
+pub(crate) const BEAM_DIAMETER_M: f64 = 0.003;
+pub(crate) const BEAM_DIVERGENCE_RAD: f64 = 0.0008;
 /// How a 532 nm dot lands in the camera's channels (colour filter cross-talk).
 const LASER_COLOUR: [f64; 3] = [0.30, 1.0, 0.40];
 /// A black square returns this share of what a white one returns of the laser.
@@ -258,7 +258,7 @@ impl SlateTexture {
     }
 
     /// Bilinear albedo at a target-frame point, `None` off the slate.
-    fn albedo_at(&self, q: &Vec3) -> Option<[f64; 3]> {
+    pub(crate) fn albedo_at(&self, q: &Vec3) -> Option<[f64; 3]> {
         if q.x < 0.0 || q.y < 0.0 || q.x > self.width_m || q.y > self.height_m {
             return None;
         }
@@ -373,7 +373,7 @@ pub(crate) fn value_noise(seed: u64, u: f64, v: f64, cell: f64) -> f64 {
     top + (bottom - top) * s(fy)
 }
 
-fn through_water(optics: &WaterOptics, albedo: [f64; 3], range_m: f64) -> [f64; 3] {
+pub(crate) fn through_water(optics: &WaterOptics, albedo: [f64; 3], range_m: f64) -> [f64; 3] {
     let mut out = [0.0; 3];
     for k in 0..3 {
         let t = (-optics.attenuation_per_m[k] * range_m).exp();
@@ -384,7 +384,7 @@ fn through_water(optics: &WaterOptics, albedo: [f64; 3], range_m: f64) -> [f64; 
 
 /// A soft-edged disc plus a Gaussian halo, added to a float RGB image. The profile is
 /// radially symmetric about `centre`, so its intensity-weighted centre is `centre`.
-fn add_spot(
+pub(crate) fn add_spot(
     img: &mut [[f32; 3]],
     width: usize,
     height: usize,
@@ -415,7 +415,7 @@ fn add_spot(
 }
 
 /// Separable Gaussian blur in place.
-fn blur(img: &mut Vec<[f32; 3]>, width: usize, height: usize, sigma: f64) {
+pub(crate) fn blur(img: &mut Vec<[f32; 3]>, width: usize, height: usize, sigma: f64) {
     if sigma <= 0.0 {
         return;
     }
@@ -522,21 +522,51 @@ pub(crate) struct Setup<'a> {
     pub seed: u64,
 }
 
+/// Renders a photo of `spec`: the scene through the water, the laser dot, glints and the
+/// laser's reflection, blur, then sensor noise.
 pub(crate) fn render_setup(spec: &Setup) -> RenderedScene {
     let cam = &spec.camera;
     let (w, h) = (cam.width_px as usize, cam.height_px as usize);
     let optics = spec.water.optics();
-    let grid = RayGrid::new(cam, 8);
     let shader = spec.target.map(|(s, p)| TargetShader::new(s, p));
-    let bg_seed = spec.seed ^ 0xB6;
+    let mut img = shade_scene(cam, &optics, shader.as_ref(), spec.seed ^ 0xB6);
+    let dot = match (&spec.laser, &shader) {
+        (Some(laser), Some(shader)) => add_laser_dot(&mut img, cam, &optics, laser, shader),
+        _ => None,
+    };
+    // Glints first, then the reflection: they share one stream, in this order.
+    let mut rng = SplitMix::derive(spec.seed, 1);
+    let glints = add_glints(&mut img, w, h, spec.glints, &mut rng);
+    let impostor = if spec.impostor { add_laser_reflection(&mut img, w, h, dot.as_ref(), &mut rng) } else { None };
+    blur(&mut img, w, h, optics.blur_sigma_px);
+    let image = quantise_with_noise(&img, w, h, optics.noise_levels, spec.seed);
+    RenderedScene {
+        image,
+        truth: SceneTruth {
+            camera: *cam,
+            laser: spec.laser,
+            board: None,
+            t_cam_target: spec.target.map(|(_, p)| p),
+            water: spec.water,
+            seed: spec.seed,
+            dot,
+            glints,
+            impostor,
+            corners_px: Vec::new(),
+        },
+    }
+}
 
-    // Supersampled board and background, through the water.
+/// The target (if any) and the background behind it, through the water, each pixel
+/// supersampled 3x3 where the target is.
+fn shade_scene(cam: &CameraModel, optics: &WaterOptics, shader: Option<&TargetShader>, bg_seed: u64) -> Vec<[f32; 3]> {
+    let (w, h) = (cam.width_px as usize, cam.height_px as usize);
+    let grid = RayGrid::new(cam, 8);
     const SUB: [f64; 3] = [-1.0 / 3.0, 0.0, 1.0 / 3.0];
-    let mut img: Vec<[f32; 3]> = (0..h)
+    (0..h)
         .into_par_iter()
         .flat_map_iter(|y| {
-            let shader = shader.as_ref();
-            let (grid, optics) = (&grid, &optics);
+            let grid = &grid;
             (0..w).map(move |x| {
                 let (u, v) = (x as f64, y as f64);
                 let background = || {
@@ -564,74 +594,80 @@ pub(crate) fn render_setup(spec: &Setup) -> RenderedScene {
                 [(acc[0] / 9.0) as f32, (acc[1] / 9.0) as f32, (acc[2] / 9.0) as f32]
             })
         })
-        .collect();
+        .collect()
+}
 
-    let mut rng = SplitMix::derive(spec.seed, 1);
+/// The laser dot where the line meets the physical target, if it does so inside the frame.
+fn add_laser_dot(
+    img: &mut [[f32; 3]],
+    cam: &CameraModel,
+    optics: &WaterOptics,
+    laser: &LaserLine,
+    shader: &TargetShader,
+) -> Option<DotTruth> {
+    let (w, h) = (cam.width_px as usize, cam.height_px as usize);
+    let hit = laser.hit(&shader.pose.plane())?;
+    let albedo = shader.albedo_at(&shader.pose.to_target(&hit))?;
+    let px = cam.project(&hit)?;
+    if !(hit.z > 0.0 && cam.contains(px)) {
+        return None;
+    }
+    let range = (hit - laser.origin()).norm();
+    let back = hit.norm();
+    let diameter = BEAM_DIAMETER_M + BEAM_DIVERGENCE_RAD * range;
+    let laser_return = shader.surface.laser_return(albedo);
+    let spread = (BEAM_DIAMETER_M / diameter).powi(2);
+    let g = optics.attenuation_per_m[1];
+    let radiance = LASER_RADIANCE * laser_return * spread * (-g * (range + back)).exp();
+    let radius_px = 0.5 * diameter * cam.fx_px / hit.z;
+    let colour = LASER_COLOUR.map(|c| c * radiance);
+    let halo_sigma = optics.halo_width * (1.5 * radius_px + 2.0);
+    add_spot(img, w, h, px, radius_px, colour, (halo_sigma, optics.halo_strength));
+    let centre = img[(px.y.round() as usize).min(h - 1) * w + (px.x.round() as usize).min(w - 1)];
+    Some(DotTruth {
+        pixel: [px.x, px.y],
+        point_m: [hit.x, hit.y, hit.z],
+        depth_m: hit.z,
+        on_black_square: laser_return < 0.5,
+        saturated: centre.iter().all(|&v| v >= 255.0),
+    })
+}
 
-    // The laser dot, where the line meets the physical board.
-    let mut dot = None;
-    if let (Some(laser), Some(shader)) = (&spec.laser, &shader) {
-        if let Some(hit) = laser.hit(&shader.pose.plane()) {
-            let q = shader.pose.to_target(&hit);
-            if let (Some(albedo), Some(px)) = (shader.albedo_at(&q), cam.project(&hit)) {
-                if hit.z > 0.0 && cam.contains(px) {
-                    let range = (hit - laser.origin()).norm();
-                    let back = hit.norm();
-                    let diameter = BEAM_DIAMETER_M + BEAM_DIVERGENCE_RAD * range;
-                    let laser_return = shader.surface.laser_return(albedo);
-                    let on_black = laser_return < 0.5;
-                    let spread = (BEAM_DIAMETER_M / diameter).powi(2);
-                    let g = optics.attenuation_per_m[1];
-                    let radiance = LASER_RADIANCE * laser_return * spread * (-g * (range + back)).exp();
-                    let radius_px = 0.5 * diameter * cam.fx_px / hit.z;
-                    let colour = LASER_COLOUR.map(|c| c * radiance);
-                    let halo_sigma = optics.halo_width * (1.5 * radius_px + 2.0);
-                    add_spot(&mut img, w, h, px, radius_px, colour, (halo_sigma, optics.halo_strength));
-                    dot = Some(DotTruth {
-                        pixel: [px.x, px.y],
-                        point_m: [hit.x, hit.y, hit.z],
-                        depth_m: hit.z,
-                        on_black_square: on_black,
-                        saturated: {
-                            let c = img[(px.y.round() as usize).min(h - 1) * w + (px.x.round() as usize).min(w - 1)];
-                            c.iter().all(|&v| v >= 255.0)
-                        },
-                    });
-                }
-            }
+/// Specular glints: bright, small, colourless. Returns their centres.
+fn add_glints(img: &mut [[f32; 3]], w: usize, h: usize, count: u32, rng: &mut SplitMix) -> Vec<[f64; 2]> {
+    (0..count)
+        .map(|_| {
+            let c = Vec2::new(rng.range(40.0, w as f64 - 40.0), rng.range(40.0, h as f64 - 40.0));
+            let r = rng.range(1.0, 6.0);
+            add_spot(img, w, h, c, r, [900.0, 900.0, 900.0], (r + 1.0, 0.08));
+            [c.x, c.y]
+        })
+        .collect()
+}
+
+/// A green reflection of the laser somewhere at least 60 px from the dot. Returns its centre.
+fn add_laser_reflection(
+    img: &mut [[f32; 3]],
+    w: usize,
+    h: usize,
+    dot: Option<&DotTruth>,
+    rng: &mut SplitMix,
+) -> Option<[f64; 2]> {
+    for _ in 0..100 {
+        let c = Vec2::new(rng.range(60.0, w as f64 - 60.0), rng.range(60.0, h as f64 - 60.0));
+        if dot.is_none_or(|d| (Vec2::new(d.pixel[0], d.pixel[1]) - c).norm() >= 60.0) {
+            let r = rng.range(2.0, 6.0);
+            let level = rng.range(120.0, 400.0);
+            add_spot(img, w, h, c, r, LASER_COLOUR.map(|k| k * level), (1.5 * r + 2.0, 0.06));
+            return Some([c.x, c.y]);
         }
     }
+    None
+}
 
-    // Specular glints: bright, small, colourless.
-    let mut glints = Vec::new();
-    for _ in 0..spec.glints {
-        let c = Vec2::new(rng.range(40.0, w as f64 - 40.0), rng.range(40.0, h as f64 - 40.0));
-        let r = rng.range(1.0, 6.0);
-        add_spot(&mut img, w, h, c, r, [900.0, 900.0, 900.0], (r + 1.0, 0.08));
-        glints.push([c.x, c.y]);
-    }
-    // A green reflection of the laser somewhere it is not the dot.
-    let mut impostor = None;
-    if spec.impostor {
-        for _ in 0..100 {
-            let c = Vec2::new(rng.range(60.0, w as f64 - 60.0), rng.range(60.0, h as f64 - 60.0));
-            let far = dot.as_ref().is_none_or(|d| (Vec2::new(d.pixel[0], d.pixel[1]) - c).norm() >= 60.0);
-            if far {
-                let r = rng.range(2.0, 6.0);
-                let level = rng.range(120.0, 400.0);
-                add_spot(&mut img, w, h, c, r, LASER_COLOUR.map(|k| k * level), (1.5 * r + 2.0, 0.06));
-                impostor = Some([c.x, c.y]);
-                break;
-            }
-        }
-    }
-
-    blur(&mut img, w, h, optics.blur_sigma_px);
-
-    // Sensor noise and 8-bit quantisation; one generator per row keeps it independent of
-    // the thread count.
-    let noise = optics.noise_levels;
-    let seed = spec.seed;
+/// Sensor noise and 8-bit quantisation; one generator per row keeps it independent of the
+/// thread count.
+pub(crate) fn quantise_with_noise(img: &[[f32; 3]], w: usize, h: usize, noise: f64, seed: u64) -> RgbImage {
     let bytes: Vec<u8> = img
         .par_chunks(w)
         .enumerate()
@@ -643,37 +679,21 @@ pub(crate) fn render_setup(spec: &Setup) -> RenderedScene {
                 .collect::<Vec<_>>()
         })
         .collect();
-    let image = RgbImage::from_raw(w as u32, h as u32, bytes).expect("buffer matches the image size");
-
-    RenderedScene {
-        image,
-        truth: SceneTruth {
-            camera: *cam,
-            laser: spec.laser,
-            board: None,
-            t_cam_target: spec.target.map(|(_, p)| p),
-            water: spec.water,
-            seed: spec.seed,
-            dot,
-            glints,
-            impostor,
-            corners_px: Vec::new(),
-        },
-    }
+    RgbImage::from_raw(w as u32, h as u32, bytes).expect("buffer matches the image size")
 }
 
 /// Rotation by `angle` about the unit `axis` (Rodrigues), row-major.
-fn axis_angle(axis: Vec3, angle: f64) -> nalgebra::Matrix3<f64> {
+pub(crate) fn axis_angle(axis: Vec3, angle: f64) -> nalgebra::Matrix3<f64> {
     nalgebra::Rotation3::from_axis_angle(&nalgebra::Unit::new_normalize(axis), angle).into_inner()
 }
 
-fn to_rows(m: &nalgebra::Matrix3<f64>) -> [[f64; 3]; 3] {
+pub(crate) fn to_rows(m: &nalgebra::Matrix3<f64>) -> [[f64; 3]; 3] {
     [0, 1, 2].map(|i| [0, 1, 2].map(|j| m[(i, j)]))
 }
 
 /// A random board orientation: turned in its plane by up to `inplane_deg`, tilted about a
 /// random axis in the image plane by up to `tilt_deg`.
-fn random_rotation(rng: &mut SplitMix, tilt_deg: f64, inplane_deg: f64) -> nalgebra::Matrix3<f64> {
+pub(crate) fn random_rotation(rng: &mut SplitMix, tilt_deg: f64, inplane_deg: f64) -> nalgebra::Matrix3<f64> {
     let phi = rng.range(0.0, std::f64::consts::TAU);
     let tilt = rng.range(0.0, tilt_deg).to_radians();
     let spin = rng.range(-inplane_deg, inplane_deg).to_radians();
@@ -682,7 +702,7 @@ fn random_rotation(rng: &mut SplitMix, tilt_deg: f64, inplane_deg: f64) -> nalge
 
 /// Whether the whole physical board (sampled along its edges) is in the image, at least
 /// `margin_px` from the border.
-fn target_in_frame(camera: &CameraModel, o: &[[f64; 3]; 4], pose: &Pose, margin_px: f64) -> bool {
+pub(crate) fn target_in_frame(camera: &CameraModel, o: &[[f64; 3]; 4], pose: &Pose, margin_px: f64) -> bool {
     (0..4).all(|k| {
         let (a, b) = (Vec3::from(o[k]), Vec3::from(o[(k + 1) % 4]));
         (0..=8).all(|i| {
@@ -702,7 +722,7 @@ fn target_in_frame(camera: &CameraModel, o: &[[f64; 3]; 4], pose: &Pose, margin_
 /// translation for a rotation and an "ease" running from 1 down to 0 as attempts fail, so
 /// placements can get tamer), until the whole board is in the frame; falls back to a
 /// face-on board at `fallback_m`.
-fn search_pose(
+pub(crate) fn search_pose(
     rng: &mut SplitMix,
     camera: &CameraModel,
     outline_m: &[[f64; 3]; 4],

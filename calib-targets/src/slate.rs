@@ -170,13 +170,48 @@ impl Slate {
 }
 
 /// One piece of tape: a rotated strip with torn ends.
-struct Tape {
-    centre: [f64; 2],
-    along: [f64; 2],
-    half_len: f64,
-    half_width: f64,
-    colour: [f64; 3],
-    seed: u64,
+#[derive(Clone, Debug, PartialEq)]
+pub struct Tape {
+    /// Scan millimetres.
+    pub centre: [f64; 2],
+    /// Unit vector along the strip.
+    pub along: [f64; 2],
+    pub half_len: f64,
+    pub half_width: f64,
+    /// Albedo, 0-1.
+    pub colour: [f64; 3],
+    pub seed: u64,
+}
+
+/// What a taped slate is made of: the plastic, its rim, the tapes' colours, and tapes stuck
+/// on last (on top of the others).
+#[derive(Clone, Debug, PartialEq)]
+pub struct SlateLook {
+    pub plastic: [f64; 3],
+    pub rim: [f64; 3],
+    /// The first six tapes alternate between the first two colours, the other six draw.
+    pub palette: Vec<[f64; 3]>,
+    pub extra_tapes: Vec<Tape>,
+}
+
+impl SlateLook {
+    /// The example slate's look: white plastic, grey rim, silver, black, red and blue tape.
+    pub fn example() -> SlateLook {
+        SlateLook {
+            plastic: [0.88, 0.89, 0.87],
+            rim: [0.45; 3],
+            // No yellow or green tape: under water, where red is absorbed first, yellow turns
+            // as green as the laser's dot (docs/slate.md).
+            palette: vec![
+                [0.62, 0.63, 0.64],
+                [0.55, 0.56, 0.58],
+                [0.12, 0.12, 0.13],
+                [0.75, 0.18, 0.15],
+                [0.15, 0.35, 0.70],
+            ],
+            extra_tapes: Vec::new(),
+        }
+    }
 }
 
 /// A synthetic taped dive slate as a scanner would see it, `px_per_mm` pixels per
@@ -184,12 +219,15 @@ struct Tape {
 /// of duct tape (silver, black, coloured) with woven texture and torn ends, overlapping. The
 /// point is a surface as feature-rich, and as irregular, as a real taped slate.
 pub fn taped_slate_scan(seed: u64, width_mm: f64, height_mm: f64, px_per_mm: f64) -> RgbImage {
+    taped_slate_scan_with(seed, width_mm, height_mm, px_per_mm, &SlateLook::example())
+}
+
+/// [`taped_slate_scan`] in another look.
+pub fn taped_slate_scan_with(seed: u64, width_mm: f64, height_mm: f64, px_per_mm: f64, look: &SlateLook) -> RgbImage {
     let (w, h) = ((width_mm * px_per_mm).round() as u32, (height_mm * px_per_mm).round() as u32);
     let mut rng = SplitMix::derive(seed, 0x51A7E);
-    // No yellow or green tape: under water, where red is absorbed first, yellow turns as
-    // green as the laser's dot (docs/slate.md).
-    let palette = [[0.62, 0.63, 0.64], [0.55, 0.56, 0.58], [0.12, 0.12, 0.13], [0.75, 0.18, 0.15], [0.15, 0.35, 0.70]];
-    let tapes: Vec<Tape> = (0..12)
+    let palette = &look.palette;
+    let mut tapes: Vec<Tape> = (0..12)
         .map(|k| {
             let angle = rng.range(0.0, std::f64::consts::PI);
             Tape {
@@ -202,6 +240,7 @@ pub fn taped_slate_scan(seed: u64, width_mm: f64, height_mm: f64, px_per_mm: f64
             }
         })
         .collect();
+    tapes.extend(look.extra_tapes.iter().cloned());
     let strokes: Vec<([f64; 2], [f64; 2])> = (0..40)
         .map(|_| {
             let a = [rng.range(0.05, 0.95) * width_mm, rng.range(0.05, 0.95) * height_mm];
@@ -210,38 +249,52 @@ pub fn taped_slate_scan(seed: u64, width_mm: f64, height_mm: f64, px_per_mm: f64
             (a, [a[0] + l * t.cos(), a[1] + l * t.sin()])
         })
         .collect();
-    let rim_mm = 5.0;
     RgbImage::from_fn(w, h, |i, j| {
         let (x, y) = ((i as f64 + 0.5) / px_per_mm, (j as f64 + 0.5) / px_per_mm);
-        let grain = 0.04 * (value_noise(seed, x, y, 1.5) - 0.5) + 0.06 * (value_noise(seed + 1, x, y, 9.0) - 0.5);
-        let edge = x.min(y).min(width_mm - x).min(height_mm - y);
-        let mut c = if edge < rim_mm { [0.45 + grain; 3] } else { [0.88 + grain, 0.89 + grain, 0.87 + grain] };
-        for (a, b) in &strokes {
-            let (dx, dy) = (b[0] - a[0], b[1] - a[1]);
-            let t = (((x - a[0]) * dx + (y - a[1]) * dy) / (dx * dx + dy * dy)).clamp(0.0, 1.0);
-            let d = ((x - a[0] - t * dx).powi(2) + (y - a[1] - t * dy).powi(2)).sqrt();
-            if d < 0.6 {
-                c = [0.3, 0.3, 0.32];
-            }
-        }
-        for tape in &tapes {
-            let (px, py) = (x - tape.centre[0], y - tape.centre[1]);
-            let s = px * tape.along[0] + py * tape.along[1];
-            let t = -px * tape.along[1] + py * tape.along[0];
-            // Torn ends: the end line wanders by a few millimetres.
-            let torn = 4.0 * (value_noise(tape.seed, t, s.signum() * 10.0, 2.5) - 0.5);
-            if t.abs() > tape.half_width || s.abs() > tape.half_len + torn {
-                continue;
-            }
-            // Woven fabric under the film: fine threads along and across, and creases.
-            let weave = 0.05 * (value_noise(tape.seed ^ 1, s * 0.25, t * 3.0, 1.0) - 0.5)
-                + 0.05 * (value_noise(tape.seed ^ 2, s * 3.0, t * 0.25, 1.0) - 0.5)
-                + 0.10 * (value_noise(tape.seed ^ 3, s, t, 6.0) - 0.5);
-            let shade = 1.0 + weave - if t.abs() > tape.half_width - 0.8 { 0.15 } else { 0.0 };
-            c = tape.colour.map(|k| k * shade);
-        }
+        let c = slate_albedo(look, &tapes, &strokes, (width_mm, height_mm), seed, x, y);
         image::Rgb(c.map(|k| (k * 255.0).round().clamp(0.0, 255.0) as u8))
     })
+}
+
+/// The slate's albedo at scan millimetres `(x, y)`: plastic or rim, pencil, tapes in order.
+fn slate_albedo(
+    look: &SlateLook,
+    tapes: &[Tape],
+    strokes: &[([f64; 2], [f64; 2])],
+    (width_mm, height_mm): (f64, f64),
+    seed: u64,
+    x: f64,
+    y: f64,
+) -> [f64; 3] {
+    const RIM_MM: f64 = 5.0;
+    let grain = 0.04 * (value_noise(seed, x, y, 1.5) - 0.5) + 0.06 * (value_noise(seed + 1, x, y, 9.0) - 0.5);
+    let edge = x.min(y).min(width_mm - x).min(height_mm - y);
+    let mut c = if edge < RIM_MM { look.rim.map(|k| k + grain) } else { look.plastic.map(|k| k + grain) };
+    for (a, b) in strokes {
+        let (dx, dy) = (b[0] - a[0], b[1] - a[1]);
+        let t = (((x - a[0]) * dx + (y - a[1]) * dy) / (dx * dx + dy * dy)).clamp(0.0, 1.0);
+        let d = ((x - a[0] - t * dx).powi(2) + (y - a[1] - t * dy).powi(2)).sqrt();
+        if d < 0.6 {
+            c = [0.3, 0.3, 0.32];
+        }
+    }
+    for tape in tapes {
+        let (px, py) = (x - tape.centre[0], y - tape.centre[1]);
+        let s = px * tape.along[0] + py * tape.along[1];
+        let t = -px * tape.along[1] + py * tape.along[0];
+        // Torn ends: the end line wanders by a few millimetres.
+        let torn = 4.0 * (value_noise(tape.seed, t, s.signum() * 10.0, 2.5) - 0.5);
+        if t.abs() > tape.half_width || s.abs() > tape.half_len + torn {
+            continue;
+        }
+        // Woven fabric under the film: fine threads along and across, and creases.
+        let weave = 0.05 * (value_noise(tape.seed ^ 1, s * 0.25, t * 3.0, 1.0) - 0.5)
+            + 0.05 * (value_noise(tape.seed ^ 2, s * 3.0, t * 0.25, 1.0) - 0.5)
+            + 0.10 * (value_noise(tape.seed ^ 3, s, t, 6.0) - 0.5);
+        let shade = 1.0 + weave - if t.abs() > tape.half_width - 0.8 { 0.15 } else { 0.0 };
+        c = tape.colour.map(|k| k * shade);
+    }
+    c
 }
 
 /// The TOML of a slate whose scan is `scan` (a file name beside it), with its lengths in
@@ -275,6 +328,13 @@ mod tests {
         assert!(s.length(Some("no-such")).is_none());
         let scan = s.read_scan().unwrap();
         assert_eq!(scan.dimensions(), (600, 440));
+    }
+
+    #[test]
+    fn the_example_scan_is_seed_one_of_the_generator() {
+        // The committed scan was made by `make-slate DIR 1`; the generator must still make it.
+        let scan = Slate::load(&example()).unwrap().read_scan().unwrap();
+        assert!(taped_slate_scan(1, 300.0, 220.0, 2.0) == scan, "taped_slate_scan no longer makes the example");
     }
 
     #[test]

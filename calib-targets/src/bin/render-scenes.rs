@@ -1,13 +1,86 @@
 //! `render-scenes laser|camera --out DIR [--count N] [--seed S] [--water clear|murky]
 //! [--glints N] [--no-board K]`: writes synthetic calibration photos with their truth.
+//!
+//! `render-scenes variety --kind calibration|slate|targetless --out DIR [--seed S]
+//! [--count N] [--size WxH]`: writes one randomised set (`calib_targets::variety`,
+//! docs/scene-variety.md). Seeds from 1000000 up are held out: do not tune on them.
 
 use calib_targets::scene::{camera_scene_set, laser_scene_set, render, Water};
+use calib_targets::variety::{Kind, VarietySet};
 use calib_targets::{write_camera_yaml, write_scene};
 use rayon::prelude::*;
 use std::path::PathBuf;
 use std::process::ExitCode;
 
-const USAGE: &str = "usage: render-scenes laser|camera --out DIR [--count N] [--seed S] [--water clear|murky] [--glints N] [--no-board K]";
+const USAGE: &str = "usage: render-scenes laser|camera --out DIR [--count N] [--seed S] [--water clear|murky] [--glints N] [--no-board K]
+       render-scenes variety --kind calibration|slate|targetless --out DIR [--seed S] [--count N] [--size WxH]";
+
+struct VarietyArgs {
+    kind: Kind,
+    out: PathBuf,
+    seed: u64,
+    count: Option<usize>,
+    width_px: u32,
+}
+
+/// `WxH` with a 4:3 aspect, e.g. `4000x3000` or `1000x750`.
+fn parse_size(v: &str) -> Result<u32, String> {
+    let bad = || format!("--size: `{v}` is not WxH in pixels with a 4:3 aspect, e.g. 4000x3000 or 1000x750");
+    let (w, h) = v.split_once('x').ok_or_else(bad)?;
+    let (w, h): (u32, u32) = (w.parse().map_err(|_| bad())?, h.parse().map_err(|_| bad())?);
+    if w % 4 != 0 || h != w / 4 * 3 {
+        return Err(bad());
+    }
+    Ok(w)
+}
+
+fn parse_variety(mut it: impl Iterator<Item = String>) -> Result<VarietyArgs, String> {
+    let mut a =
+        VarietyArgs { kind: Kind::Calibration, out: PathBuf::new(), seed: 1_000_000, count: None, width_px: 4000 };
+    let mut kind = None;
+    while let Some(flag) = it.next() {
+        let value = it.next().ok_or_else(|| format!("{flag} needs a value"))?;
+        let number = |v: &str| v.parse::<u64>().map_err(|_| format!("{flag}: `{v}` is not a whole number"));
+        match flag.as_str() {
+            "--kind" => kind = Some(value.parse::<Kind>()?),
+            "--out" => a.out = PathBuf::from(value),
+            "--seed" => a.seed = number(&value)?,
+            "--count" => a.count = Some(number(&value)? as usize),
+            "--size" => a.width_px = parse_size(&value)?,
+            _ => return Err(format!("unknown option {flag}")),
+        }
+    }
+    a.kind = kind.ok_or("--kind calibration|slate|targetless is required")?;
+    if a.out.as_os_str().is_empty() {
+        return Err("--out DIR is required".into());
+    }
+    Ok(a)
+}
+
+fn run_variety(args: VarietyArgs) -> ExitCode {
+    let set = match VarietySet::plan(args.kind, args.seed, args.count, args.width_px) {
+        Ok(s) => s,
+        Err(e) => {
+            eprintln!("render-scenes: {e}");
+            return ExitCode::from(2);
+        }
+    };
+    match set.write(&args.out, &mut |p| println!("{}", p.display())) {
+        Ok(_) => {
+            for f in ["camera.yml", "cal.json", "set.json"] {
+                println!("{}", args.out.join(f).display());
+            }
+            if set.slate.is_some() {
+                println!("{}", args.out.join("slate.toml").display());
+            }
+            ExitCode::SUCCESS
+        }
+        Err(e) => {
+            eprintln!("render-scenes: {e}");
+            ExitCode::FAILURE
+        }
+    }
+}
 
 struct Args {
     kind: String,
@@ -46,6 +119,15 @@ fn parse() -> Result<Args, String> {
 }
 
 fn main() -> ExitCode {
+    if std::env::args().nth(1).as_deref() == Some("variety") {
+        return match parse_variety(std::env::args().skip(2)) {
+            Ok(a) => run_variety(a),
+            Err(e) => {
+                eprintln!("render-scenes: {e}\n{USAGE}");
+                ExitCode::from(2)
+            }
+        };
+    }
     let args = match parse() {
         Ok(a) => a,
         Err(e) => {

@@ -351,9 +351,10 @@ impl<'a> UnitFile<'a> {
             return Err("laser direction not a forward unit vector");
         }
         if let Some(c) = &self.laser_colour {
-            let norm = c.rgb.iter().map(|v| v * v).sum::<f32>().sqrt();
+            // Squared, as no_std has no sqrt: |n - 1| <= 1e-3 is about |n² - 1| <= 2e-3.
+            let norm_sq = c.rgb.iter().map(|v| v * v).sum::<f32>();
             if !c.rgb.iter().all(|v| v.is_finite())
-                || (norm - 1.0).abs() > 1e-3
+                || (norm_sq - 1.0).abs() > 2e-3
                 || !c.spread_rad.is_finite()
                 || c.spread_rad < 0.0
             {
