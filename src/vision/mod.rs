@@ -8,7 +8,7 @@ mod intrinsics;
 mod pose;
 mod slate;
 
-pub use board::{find_checkerboard, local_square_px, refine_corners, BoardSearch};
+pub use board::{find_checkerboard, local_square_px, refine_corners, search_plan, BoardSearch, SearchStep};
 pub use decoded::Photo;
 pub use intrinsics::{calibrate_intrinsics, IntrinsicsSolve, SolveOptions};
 pub use pose::{solve_pose, TargetPose};
