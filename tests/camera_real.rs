@@ -236,7 +236,7 @@ fn a_fixed_11x11_window_damages_the_far_board() {
     let mut views = Vec::new();
     for p in left_set().photos.iter().map(|p| PathBuf::from(&p.file)) {
         let encoded = EncodedPhoto::read(&p).unwrap();
-        let found = find_checkerboard(&encoded, 9, 6).unwrap().unwrap();
+        let found = find_checkerboard(&encoded.decode().unwrap(), &p, 9, 6).unwrap().unwrap();
         let grey = imgcodecs::imread(p.to_str().unwrap(), imgcodecs::IMREAD_GRAYSCALE).unwrap();
         let mut pts: Vector<Point2f> = found.corners_px.iter().map(|c| Point2f::new(c.x as f32, c.y as f32)).collect();
         let criteria =

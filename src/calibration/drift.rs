@@ -107,7 +107,7 @@ pub fn check(cal: &Calibration, photos: &[PathBuf], progress: &(dyn Fn() + Sync)
 /// calibrated camera's size.
 fn decode(path: &Path, cal: &Calibration) -> Result<Result<Photo, CheckSkip>, CheckError> {
     let file = path.display().to_string();
-    let photo = EncodedPhoto::read(path).and_then(|e| Ok((e.dimensions()?, e.decode_full()?)));
+    let photo = EncodedPhoto::read(path).and_then(|e| Ok((e.dimensions()?, e.decode()?)));
     let ((w, h), photo) = match photo {
         Ok(p) => p,
         Err(e) => return Ok(Err(CheckSkip::Unreadable { detail: strip_path(&e.to_string(), &file) })),

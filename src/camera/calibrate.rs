@@ -103,10 +103,10 @@ fn examine(board: &Checkerboard, path: &std::path::Path) -> Result<Detection, Vi
     let (cols, rows) = (board.inner_cols, board.inner_rows);
     let encoded = EncodedPhoto::read(path)?;
     let size = encoded.dimensions()?;
-    let Some(search) = vision::find_checkerboard(&encoded, cols, rows)? else {
+    let photo = encoded.decode()?;
+    let Some(search) = vision::find_checkerboard(&photo, path, cols, rows)? else {
         return Ok(Detection { size, corners: None });
     };
-    let photo = encoded.decode_full()?;
     let mut corners = search.corners_px;
     vision::refine_corners(&photo, &mut corners, cols, rows)
         .map_err(|e| VisionError::OpenCv { path: path.display().to_string(), message: e.message })?;

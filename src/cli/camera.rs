@@ -8,6 +8,7 @@ use crate::camera::opencv_yaml::{self, CameraFileExtras};
 use crate::camera::residuals::FRAME_CORNER_SHARE;
 use crate::documents::{self, camera::CameraDocument, XOfN};
 use crate::photo::identity::photos_exif;
+use crate::photo::thumbnails::Keeping;
 use crate::report::{self, camera::CameraReport};
 use anyhow::Context;
 use calib_targets::Checkerboard;
@@ -58,6 +59,8 @@ pub fn run(args: CameraArgs) -> anyhow::Result<ExitCode> {
     outputs::check(&inputs, &outs, false)?;
     let args = CameraArgs { photos: super::photos::prepare(&args.photos)?, ..args };
     let job = CameraJob::new(args.board);
+    // The report's thumbnails come from each photo's one decode, kept while the run lasts.
+    let _thumbnails = args.report.is_some().then(|| Keeping::start(report::THUMBNAIL_WIDTH_PX));
     let bar = progress::bar(args.photos.len(), "photos", args.json);
     let result = calibrate(&job, &args.photos, &|| bar.inc(1));
     bar.finish_and_clear();

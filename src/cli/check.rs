@@ -7,6 +7,7 @@ use crate::calibration;
 use crate::calibration::drift::{check, CheckError, CheckOutcome, DriftCheck, FLAG_SIGMAS};
 use crate::documents::{self, check::CheckDocument, refused::RefusedDocument};
 use crate::photo::identity::ExpectedCamera;
+use crate::photo::thumbnails::Keeping;
 use crate::report::{self, check::CheckReport};
 use anyhow::bail;
 use std::path::{Path, PathBuf};
@@ -51,6 +52,8 @@ pub fn run(args: CheckArgs) -> anyhow::Result<ExitCode> {
     let cal = calibration::load(&args.cal)?;
     let args = CheckArgs { photos: super::photos::prepare(&args.photos)?, ..args };
     args.body.check(&ExpectedCamera::from(&cal), &args.photos)?;
+    // The report's thumbnails come from each photo's one decode, kept while the run lasts.
+    let _thumbnails = args.report.is_some().then(|| Keeping::start(report::THUMBNAIL_WIDTH_PX));
     let bar = progress::bar(args.photos.len(), "photos", args.json);
     let result = check(&cal, &args.photos, &|| bar.inc(1));
     bar.finish_and_clear();

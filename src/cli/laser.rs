@@ -24,6 +24,7 @@ use crate::laser::target::{Target, TargetArg};
 use crate::photo::dot_labels::{self, DotsFile, DotsFormat};
 use crate::photo::frame::{Frame, FramePlace, ImageGeometry};
 use crate::photo::identity::{photos_exif, ExpectedCamera, PhotosExif};
+use crate::photo::thumbnails::Keeping;
 use crate::report::{
     self,
     laser::{LaserOutcome, LaserReport},
@@ -286,6 +287,8 @@ pub fn run(args: LaserArgs) -> anyhow::Result<ExitCode> {
     }
     let (hand_dots, dots_file) = hand_dots(&args, &camera)?;
     let job = job(&args, camera, &expected, hand_dots)?;
+    // The report's thumbnails come from each photo's one decode, kept while the run lasts.
+    let _thumbnails = args.report.is_some().then(|| Keeping::start(report::THUMBNAIL_WIDTH_PX));
     let cal = fit(&args, &job)?;
     // Read once: the JSON reports it and a signed file records the body and depth from it.
     let identity = photos_exif(&args.photos);

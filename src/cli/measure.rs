@@ -202,7 +202,7 @@ fn search_dot(cal: &Calibration, photo: &Path) -> Result<Vec2, Withheld> {
     use crate::dot::on_line::{find_dot_on_laser_line, LineSearch};
     let no_dot = |why: DotMissing| Withheld::NoDot { why: why.into() };
     let decoded = crate::vision::EncodedPhoto::read(photo)
-        .and_then(|p| p.decode_full())
+        .and_then(|p| p.decode())
         .map_err(|e| no_dot(DotMissing::Unreadable { message: e.to_string() }))?;
     find_dot_on_laser_line(&decoded.colour(), &cal.camera, &cal.laser, &LineSearch::default())
         .map(|d| d.pixel)
@@ -216,6 +216,7 @@ fn search_dot(_cal: &Calibration, _photo: &Path) -> Result<Vec2, Withheld> {
 
 /// A photo's size in pixels: a JPEG's or PNG's from its header, a raw's from its active area.
 fn photo_size(photo: &Path) -> anyhow::Result<(u32, u32)> {
+    crate::photo::counter::count(crate::photo::counter::Event::HeaderRead);
     match image::image_dimensions(photo) {
         Ok(size) => Ok(size),
         #[cfg(feature = "vision")]

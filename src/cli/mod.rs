@@ -82,7 +82,16 @@ pub fn error_line(err: &anyhow::Error) -> String {
 
 /// Parses the command line and runs the subcommand.
 pub fn run() -> anyhow::Result<ExitCode> {
-    let cli = Cli::parse();
+    run_parsed(Cli::parse())
+}
+
+/// Runs the command line `args` (the program's name first) in this process, as `main` runs
+/// the process's own: tests count what a whole command does (e.g. photo decodes) this way.
+pub fn run_from(args: impl IntoIterator<Item = impl Into<std::ffi::OsString> + Clone>) -> anyhow::Result<ExitCode> {
+    run_parsed(Cli::try_parse_from(args)?)
+}
+
+fn run_parsed(cli: Cli) -> anyhow::Result<ExitCode> {
     match cli.command {
         Command::Develop(args) => develop::run(args),
         #[cfg(feature = "vision")]

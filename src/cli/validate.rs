@@ -13,6 +13,7 @@ use crate::documents::{self};
 use crate::dot::candidates::DotDetectorParams;
 use crate::laser::target::TargetArg;
 use crate::photo::identity::ExpectedCamera;
+use crate::photo::thumbnails::Keeping;
 use crate::report::{self, validate::ValidationReport};
 use crate::units::registry::sha256_hex;
 use crate::utc_time;
@@ -90,6 +91,8 @@ pub fn run(args: ValidateArgs) -> anyhow::Result<ExitCode> {
         tolerance_pct: args.tolerance,
         detector: DotDetectorParams::default(),
     };
+    // The report's thumbnails come from each photo's one decode, kept while the run lasts.
+    let _thumbnails = args.report.is_some().then(|| Keeping::start(report::THUMBNAIL_WIDTH_PX));
     let bar = progress::bar(args.photos.len(), "photos", args.json);
     let result = validate(&job, &args.photos, &|| bar.inc(1));
     bar.finish_and_clear();

@@ -20,6 +20,7 @@ use fslcal_core::{CameraModel, LaserLine, Vec2};
 use rayon::prelude::*;
 use std::collections::HashMap;
 use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicUsize, Ordering};
 
 pub use super::outcome::{BoardInImage, DotSource, PhotoReport, PhotoStatus, SkipReason, TargetMiss};
 
@@ -56,16 +57,35 @@ struct PixelCrop {
 
 /// Largest board crop kept per photo (pixels): far boards, whose faint dots are the ones
 /// that need a second look, are far smaller; near boards' dots are found at once.
-const MAX_KEPT_CROP_PX: usize = 4_000_000;
+const MAX_KEPT_CROP_PX: usize = 2_000_000;
+
+/// What the kept board crops of one run may hold together, bytes: memory stays bounded
+/// however many photos a run has; a photo past it that needs a second look is decoded
+/// again.
+const KEPT_CROPS_BYTES: usize = 64 << 20;
+
+/// The bytes left for kept board crops in a run.
+struct CropBudget(AtomicUsize);
+
+impl CropBudget {
+    fn new() -> CropBudget {
+        CropBudget(AtomicUsize::new(KEPT_CROPS_BYTES))
+    }
+
+    /// Takes `bytes` from the budget, or nothing when fewer are left.
+    fn take(&self, bytes: usize) -> bool {
+        self.0.fetch_update(Ordering::Relaxed, Ordering::Relaxed, |left| left.checked_sub(bytes)).is_ok()
+    }
+}
 
 impl PixelCrop {
-    fn of(view: &ColourView, outline: &[Vec2]) -> Option<PixelCrop> {
+    fn of(view: &ColourView, outline: &[Vec2], budget: &CropBudget) -> Option<PixelCrop> {
         let pad = 8.0;
         let x0 = (outline.iter().map(|p| p.x).fold(f64::INFINITY, f64::min) - pad).max(0.0) as usize;
         let y0 = (outline.iter().map(|p| p.y).fold(f64::INFINITY, f64::min) - pad).max(0.0) as usize;
         let x1 = ((outline.iter().map(|p| p.x).fold(f64::NEG_INFINITY, f64::max) + pad) as usize).min(view.width);
         let y1 = ((outline.iter().map(|p| p.y).fold(f64::NEG_INFINITY, f64::max) + pad) as usize).min(view.height);
-        if x1 <= x0 || y1 <= y0 || (x1 - x0) * (y1 - y0) > MAX_KEPT_CROP_PX {
+        if x1 <= x0 || y1 <= y0 || (x1 - x0) * (y1 - y0) > MAX_KEPT_CROP_PX || !budget.take(3 * (x1 - x0) * (y1 - y0)) {
             return None;
         }
         let (width, height) = (x1 - x0, y1 - y0);
@@ -169,6 +189,11 @@ impl HandDots {
 
 /// Stage one for one photo: target, pose, dot candidates.
 pub fn examine_photo(job: &LaserJob, path: &Path) -> Result<PhotoResult, LaserError> {
+    examine(job, path, &CropBudget::new())
+}
+
+/// [`examine_photo`], keeping the board's pixels while `budget` allows.
+fn examine(job: &LaserJob, path: &Path, budget: &CropBudget) -> Result<PhotoResult, LaserError> {
     let located = match locate_target(&job.target, &job.camera, path)? {
         Ok(l) => l,
         Err(reason) => return Ok(Err(reason)),
@@ -181,7 +206,7 @@ pub fn examine_photo(job: &LaserJob, path: &Path) -> Result<PhotoResult, LaserEr
             (job.target.find_dots(&photo.colour(), &region, &job.detector, 8), DotSource::Detected)
         }
     };
-    let board_pixels = PixelCrop::of(&photo.colour(), &outline);
+    let board_pixels = PixelCrop::of(&photo.colour(), &outline, budget);
     Ok(Ok(PhotoEvidence {
         board_pixels,
         image_size: (photo.width(), photo.height()),
@@ -230,7 +255,7 @@ fn search_near_prediction(
             return near_prediction::find_near(surface, &crop.view(), o, predicted, radius, &job.detector);
         }
     }
-    let photo: Photo = EncodedPhoto::read(path).ok()?.decode_full().ok()?;
+    let photo: Photo = EncodedPhoto::read(path).ok()?.decode().ok()?;
     near_prediction::find_near(surface, &photo.colour(), Vec2::zeros(), predicted, radius, &job.detector)
 }
 
@@ -241,10 +266,11 @@ pub fn calibrate(
     progress: &(dyn Fn() + Sync),
 ) -> Result<LaserCalibration, LaserError> {
     vision::use_single_threaded_opencv();
+    let budget = CropBudget::new();
     let mut results: Vec<PhotoResult> = photos
         .par_iter()
         .map(|p| {
-            let r = examine_photo(job, p);
+            let r = examine(job, p, &budget);
             progress();
             r
         })

@@ -255,12 +255,12 @@ fn locate_board(
 ) -> Result<LocatedTarget, TargetMiss> {
     let (cols, rows) = (board.inner_cols, board.inner_rows);
     let failed = |e: VisionError| TargetMiss::Vision { detail: strip_path(&e.to_string(), file) };
-    let search = match vision::find_checkerboard(encoded, cols, rows) {
+    let photo = encoded.decode().map_err(failed)?;
+    let search = match vision::find_checkerboard(&photo, encoded.path, cols, rows) {
         Ok(Some(s)) => s,
         Ok(None) => return Err(TargetMiss::NoCheckerboard { cols, rows }),
         Err(e) => return Err(failed(e)),
     };
-    let photo = encoded.decode_full().map_err(failed)?;
     let mut corners = search.corners_px;
     if let Err(e) = vision::refine_corners(&photo, &mut corners, cols, rows) {
         return Err(TargetMiss::CornerRefinement { detail: e.message });

@@ -42,6 +42,7 @@ impl PhotoExif {
     pub fn read_file(path: &std::path::Path) -> Option<PhotoExif> {
         use std::io::Read;
         let mut head = Vec::new();
+        crate::photo::counter::count(crate::photo::counter::Event::HeaderRead);
         std::fs::File::open(path).ok()?.take(1 << 20).read_to_end(&mut head).ok()?;
         PhotoExif::from_bytes(&head)
     }

@@ -2,6 +2,7 @@
 //! length), whether it comes from the calibrated body, raw (ORF) decoding, the pixel frames
 //! pixels are measured in, and the Label Studio labels clicked on photos.
 
+pub mod counter;
 pub mod dot_labels;
 pub mod exif;
 pub mod frame;
@@ -9,3 +10,4 @@ pub mod identity;
 pub mod label_studio;
 pub mod names;
 pub mod raw;
+pub mod thumbnails;

@@ -2,6 +2,8 @@
 //! laser line's image. Overlays are given in full-resolution pixels (the convention of
 //! `docs/conventions.md`) and mapped onto the thumbnail here.
 
+use crate::photo::counter::{count, Event};
+use crate::photo::thumbnails::{self, Kept};
 use fslcal_core::{CameraModel, LaserLine, Vec2};
 use image::{imageops, ImageReader, Rgb, RgbImage};
 use std::path::Path;
@@ -69,9 +71,28 @@ pub fn laser_image_px(camera: &CameraModel, laser: &LaserLine) -> Vec<Vec<Vec2>>
     lines
 }
 
-/// Reads `photo`, scales it to `width_px` wide and draws `overlay` on it.
+/// `photo` scaled to `width_px` wide with `overlay` drawn on it: the thumbnail its run kept
+/// from the photo's one decode (`photo::thumbnails`), or, for a photo that run did not
+/// decode, read and scaled here.
 pub fn draw(photo: &Path, width_px: u32, overlay: &Overlay) -> Result<Thumbnail, ThumbnailError> {
+    let kept = match thumbnails::take(photo) {
+        Some(k) if k.image.width() == thumbnails::size_px(k.full_width_px, k.full_height_px, width_px).0 => k,
+        _ => read_and_scale(photo, width_px)?,
+    };
+    let mut t = kept.image;
+    let (tw, th) = t.dimensions();
+    draw_overlay(&mut t, tw as f64 / kept.full_width_px as f64, overlay);
+    let mut jpeg = Vec::new();
+    image::codecs::jpeg::JpegEncoder::new_with_quality(&mut jpeg, 82)
+        .encode_image(&t)
+        .map_err(|e| ThumbnailError::Encode(e.to_string()))?;
+    Ok(Thumbnail { jpeg, width_px: tw, height_px: th })
+}
+
+fn read_and_scale(photo: &Path, width_px: u32) -> Result<Kept, ThumbnailError> {
     let read = |message: String| ThumbnailError::Read { path: photo.display().to_string(), message };
+    count(Event::FileRead);
+    count(Event::FullDecode);
     let img = ImageReader::open(photo)
         .map_err(|e| read(e.to_string()))?
         .with_guessed_format()
@@ -79,15 +100,8 @@ pub fn draw(photo: &Path, width_px: u32, overlay: &Overlay) -> Result<Thumbnail,
         .decode()
         .map_err(|e| read(e.to_string()))?;
     let (w, h) = (img.width(), img.height());
-    let tw = width_px.min(w).max(1);
-    let th = ((h as f64 * tw as f64 / w as f64).round() as u32).max(1);
-    let mut t = imageops::thumbnail(&img.to_rgb8(), tw, th);
-    draw_overlay(&mut t, tw as f64 / w as f64, overlay);
-    let mut jpeg = Vec::new();
-    image::codecs::jpeg::JpegEncoder::new_with_quality(&mut jpeg, 82)
-        .encode_image(&t)
-        .map_err(|e| ThumbnailError::Encode(e.to_string()))?;
-    Ok(Thumbnail { jpeg, width_px: tw, height_px: th })
+    let (tw, th) = thumbnails::size_px(w, h, width_px);
+    Ok(Kept { image: imageops::thumbnail(&img.to_rgb8(), tw, th), full_width_px: w, full_height_px: h })
 }
 
 /// Draws on an image scaled by `scale` from the full-resolution photo.

@@ -2,22 +2,26 @@
 //! corners, and solving a target's pose. Nothing outside this module names `opencv`.
 
 mod board;
+mod buffers;
+mod decoded;
 mod intrinsics;
 mod pose;
 mod slate;
 
-pub use board::{find_checkerboard, local_square_px, refine_corners, BoardSearch};
+pub use board::{find_checkerboard, local_square_px, refine_corners, search_plan, BoardSearch, SearchStep};
+pub use decoded::Photo;
 pub use intrinsics::{calibrate_intrinsics, IntrinsicsSolve, SolveOptions};
 pub use pose::{solve_pose, TargetPose};
 pub use slate::{find_slate, Features, SlateDetection, SlateMiss, SlateModel, MIN_INLIERS};
 
-use crate::dot::candidates::{ChannelOrder, ColourView};
+use crate::photo::counter::{count, Event};
 use crate::photo::exif::PhotoExif;
 use crate::photo::raw::develop::{binned_grey, for_each_row, write_row, GreyWorld, Order, ToneCurve};
 use crate::photo::raw::{is_orf, RawError, RawFrame};
+use crate::photo::thumbnails;
 use opencv::core::{Mat, Scalar, Vector, CV_8UC1, CV_8UC3};
+use opencv::imgcodecs;
 use opencv::prelude::*;
-use opencv::{imgcodecs, imgproc};
 use std::path::Path;
 
 #[derive(Debug, thiserror::Error)]
@@ -56,18 +60,9 @@ enum Source {
     Raw { frame: RawFrame, balance: GreyWorld },
 }
 
-/// A decoded full-resolution colour photo (BGR, 8 bit).
-pub struct Photo {
-    /// What people see: the JPEG's pixels, or a raw developed with the grey-world balance.
-    bgr: Mat,
-    grey: Mat,
-    /// For a raw, its linear levels under the camera's white balance (green 255 = the sensor
-    /// clipped), where the dot's saturation and colour are true; the dot detector reads this.
-    linear: Option<Mat>,
-}
-
 impl<'p> EncodedPhoto<'p> {
     pub fn read(path: &'p Path) -> Result<Self, VisionError> {
+        count(Event::FileRead);
         let bytes = std::fs::read(path).map_err(|cause| VisionError::Io { path: path.display().to_string(), cause })?;
         if bytes.is_empty() {
             return Err(VisionError::Undecodable { path: path.display().to_string() });
@@ -100,17 +95,6 @@ impl<'p> EncodedPhoto<'p> {
         self.exif.as_ref()
     }
 
-    fn decode(&self, flags: i32) -> Result<Mat, VisionError> {
-        let Source::Encoded(buf) = &self.source else {
-            unreachable!("raw photos are developed, not decoded by OpenCV");
-        };
-        let m = imgcodecs::imdecode(buf, flags).map_err(|e| VisionError::cv(self.path, e))?;
-        if m.empty() {
-            return Err(VisionError::Undecodable { path: self.path.display().to_string() });
-        }
-        Ok(m)
-    }
-
     /// Width and height from the file's header, without decoding pixels.
     pub fn dimensions(&self) -> Result<(u32, u32), VisionError> {
         let undecodable = || VisionError::Undecodable { path: self.path.display().to_string() };
@@ -125,45 +109,71 @@ impl<'p> EncodedPhoto<'p> {
             .map_err(|_| undecodable())
     }
 
-    /// Greyscale at 1/4 (JPEG decodes this fast by DCT scaling) or 1/2 size.
-    /// A raw is binned from its sensor sites (no demosaic), which is as fast.
+    /// Greyscale at 1/2, 1/4 or 1/8 size by libjpeg's DCT scaling, for a caller that needs
+    /// nothing at full resolution (a raw is binned from its sensor sites, as fast). A photo
+    /// that may need full resolution is [`decode`](Self::decode)d once instead, and its
+    /// reduced images come from that.
     pub fn decode_reduced_grey(&self, factor: u32) -> Result<Mat, VisionError> {
         if let Source::Raw { frame, balance } = &self.source {
-            if factor >= 2 {
-                let (grey, w, h) = binned_grey(frame, balance, factor as usize);
-                return self.mat_from(&grey, w, h, CV_8UC1);
-            }
-            return self.decode_full().map(|p| p.grey);
+            let (grey, w, h) = binned_grey(frame, balance, factor.max(2) as usize);
+            return self.mat_from(&grey, w, h, CV_8UC1);
         }
         let flags = match factor {
             2 => imgcodecs::IMREAD_REDUCED_GRAYSCALE_2,
             4 => imgcodecs::IMREAD_REDUCED_GRAYSCALE_4,
-            8 => imgcodecs::IMREAD_REDUCED_GRAYSCALE_8,
-            _ => imgcodecs::IMREAD_GRAYSCALE,
+            _ => imgcodecs::IMREAD_REDUCED_GRAYSCALE_8,
         };
-        self.decode(flags)
+        let Source::Encoded(buf) = &self.source else { unreachable!("raws returned above") };
+        count(Event::ReducedDecode);
+        let m = imgcodecs::imdecode(buf, flags).map_err(|e| VisionError::cv(self.path, e))?;
+        if m.empty() {
+            return Err(VisionError::Undecodable { path: self.path.display().to_string() });
+        }
+        Ok(m)
     }
 
-    /// Full-resolution colour.
-    pub fn decode_full(&self) -> Result<Photo, VisionError> {
-        let (bgr, linear) = match &self.source {
-            Source::Encoded(_) => (self.decode(imgcodecs::IMREAD_COLOR)?, None),
+    /// The photo's one decode, at full resolution: the colour pixels in the decoder's own
+    /// layout (BGR), written into a buffer this thread has used before; the grey and
+    /// reduced images and the report's thumbnail all come from it.
+    pub fn decode(&self) -> Result<Photo, VisionError> {
+        let cv = |e| VisionError::cv(self.path, e);
+        let photo = match &self.source {
+            Source::Encoded(buf) => {
+                // A size the header does not give (or gives before EXIF rotation) only costs
+                // a fresh buffer.
+                let (w, h) = self.dimensions().unwrap_or((0, 0));
+                let mut bgr = buffers::take(h as i32, w as i32, CV_8UC3);
+                count(Event::FullDecode);
+                imgcodecs::imdecode_to(buf, imgcodecs::IMREAD_COLOR, &mut bgr).map_err(cv)?;
+                if bgr.empty() {
+                    return Err(VisionError::Undecodable { path: self.path.display().to_string() });
+                }
+                Photo::new(bgr, None)
+            }
             Source::Raw { frame, balance } => {
                 let (bgr, linear) = self.develop(frame, balance)?;
-                (bgr, Some(linear))
+                Photo::new(bgr, Some(linear))
             }
         };
-        let mut grey = Mat::default();
-        imgproc::cvt_color(&bgr, &mut grey, imgproc::COLOR_BGR2GRAY, 0).map_err(|e| VisionError::cv(self.path, e))?;
-        Ok(Photo { bgr, grey, linear })
+        if let Some(width_px) = thumbnails::wanted_width_px() {
+            let kept = photo.thumbnail(width_px).map_err(cv)?;
+            thumbnails::keep(self.path, kept);
+        }
+        Ok(photo)
     }
 
     /// Developed (balanced sRGB) and linear BGR images of a raw, in one demosaic pass.
     fn develop(&self, frame: &RawFrame, balance: &GreyWorld) -> Result<(Mat, Mat), VisionError> {
         let cv = |e| VisionError::cv(self.path, e);
         let (w, h) = (frame.width as i32, frame.height as i32);
-        let mut bgr = Mat::new_rows_cols_with_default(h, w, CV_8UC3, Scalar::all(0.0)).map_err(cv)?;
-        let mut linear = Mat::new_rows_cols_with_default(h, w, CV_8UC3, Scalar::all(0.0)).map_err(cv)?;
+        let mut bgr = buffers::take(h, w, CV_8UC3);
+        if bgr.empty() {
+            bgr = Mat::new_rows_cols_with_default(h, w, CV_8UC3, Scalar::all(0.0)).map_err(cv)?;
+        }
+        let mut linear = buffers::take(h, w, CV_8UC3);
+        if linear.empty() {
+            linear = Mat::new_rows_cols_with_default(h, w, CV_8UC3, Scalar::all(0.0)).map_err(cv)?;
+        }
         {
             let (srgb, straight) = (ToneCurve::srgb(255), ToneCurve::linear(255));
             // The camera's own white balance, green unscaled: the board's white squares come
@@ -187,33 +197,6 @@ impl<'p> EncodedPhoto<'p> {
         let mut m = Mat::new_rows_cols_with_default(h as i32, w as i32, typ, Scalar::all(0.0)).map_err(cv)?;
         m.data_bytes_mut().map_err(cv)?.copy_from_slice(pixels);
         Ok(m)
-    }
-}
-
-impl Photo {
-    pub fn width(&self) -> u32 {
-        self.bgr.cols() as u32
-    }
-
-    pub fn height(&self) -> u32 {
-        self.bgr.rows() as u32
-    }
-
-    /// The colour pixels for the dot detector: a raw's linear levels, else the photo's.
-    pub fn colour(&self) -> ColourView<'_> {
-        let m = self.linear.as_ref().unwrap_or(&self.bgr);
-        let data = m.data_bytes().unwrap_or(&[]);
-        ColourView {
-            width: m.cols() as usize,
-            height: m.rows() as usize,
-            stride: m.cols() as usize * 3,
-            order: ChannelOrder::Bgr,
-            data,
-        }
-    }
-
-    pub(crate) fn grey(&self) -> &Mat {
-        &self.grey
     }
 }
 

@@ -230,12 +230,12 @@ fn to_full(p: Vec2, factor: u32, origin: Vec2) -> Vec2 {
 }
 
 /// Coarse stage: the scan-to-photo homography in full-resolution pixels, and the factor.
-fn coarse(model: &SlateModel, photo: &EncodedPhoto) -> Result<(Homography, u32), SlateMiss> {
+fn coarse(model: &SlateModel, photo: &Photo, path: &Path) -> Result<(Homography, u32), SlateMiss> {
     let mut best = 0;
     for factor in [4u32, 2] {
-        let grey = photo.decode_reduced_grey(factor)?;
-        let cv = |e: opencv::Error| SlateMiss::Vision(VisionError::cv(photo.path, e));
-        let set = detect(model.features, &grey, &no_array()).map_err(cv)?;
+        let cv = |e: opencv::Error| SlateMiss::Vision(VisionError::cv(path, e));
+        let grey = photo.reduced_grey(factor).map_err(cv)?;
+        let set = detect(model.features, grey, &no_array()).map_err(cv)?;
         let m = ratio_matches(model.features, &model.scan, &set).map_err(cv)?;
         let src: Vec<Vec2> = m.iter().map(|&(s, _)| model.scan.points_px[s]).collect();
         let dst: Vec<Vec2> = m.iter().map(|&(_, p)| to_full(set.points_px[p], factor, Vec2::zeros())).collect();
@@ -279,8 +279,8 @@ pub fn find_slate(
     encoded: &EncodedPhoto,
     camera: &CameraModel,
 ) -> Result<SlateDetection, SlateMiss> {
-    let (coarse_h, found_at_factor) = coarse(model, encoded)?;
-    let photo = encoded.decode_full()?;
+    let photo = encoded.decode()?;
+    let (coarse_h, found_at_factor) = coarse(model, &photo, encoded.path)?;
     let cv = |e: opencv::Error| SlateMiss::Vision(VisionError::cv(encoded.path, e));
     let outline: Vec<Vec2> = model.outline_scan_px().iter().filter_map(|p| coarse_h.apply(*p)).collect();
     if outline.len() < 4 {
@@ -290,9 +290,18 @@ pub fn find_slate(
     let mask = crop.slate_mask(&outline).map_err(cv)?;
     let set = detect(model.features, &crop.small, &mask).map_err(cv)?;
     let matches = ratio_matches(model.features, &model.scan, &set).map_err(cv)?;
-    let (src, dst) = guided_pairs(model, &set, &matches, &coarse_h, &crop, found_at_factor);
     let f = crop.factor as f64;
-    let (_, inliers) = ransac_homography(&src, &dst, 2.0 * f).map_err(cv)?.unwrap_or((coarse_h, Vec::new()));
+    let (coarse_src, coarse_dst) = guided_pairs(model, &set, &matches, &coarse_h, &crop, found_at_factor);
+    // Guided again by the first fine homography: the coarse one, from a reduced image, can
+    // be a few pixels off at the slate's far edge, where it left good matches out.
+    let (src, dst, inliers) = match ransac_homography(&coarse_src, &coarse_dst, 2.0 * f).map_err(cv)? {
+        Some((fine_h, first)) if first.len() >= MIN_INLIERS => {
+            let (src, dst) = guided_pairs(model, &set, &matches, &fine_h, &crop, crop.factor);
+            let inliers = ransac_homography(&src, &dst, 2.0 * f).map_err(cv)?.map_or(Vec::new(), |r| r.1);
+            (src, dst, inliers)
+        }
+        first => (coarse_src, coarse_dst, first.map_or(Vec::new(), |r| r.1)),
+    };
     if inliers.len() < MIN_INLIERS {
         return Err(SlateMiss::Weak { inliers: inliers.len(), matches: matches.len(), needed: MIN_INLIERS });
     }
@@ -341,7 +350,7 @@ impl FineCrop {
         let scan_px = model.scan_size.0.max(model.scan_size.1) as f64;
         let factor = ((slate_px / scan_px).round() as u32).clamp(1, 8);
         let rect = Rect::new(x0 as i32, y0 as i32, (x1 - x0) as i32, (y1 - y0) as i32);
-        let crop = Mat::roi(photo.grey(), rect).map_err(cv)?;
+        let crop = Mat::roi(photo.grey().map_err(cv)?, rect).map_err(cv)?;
         let small = if factor > 1 {
             let mut s = Mat::default();
             let size = Size::new(rect.width / factor as i32, rect.height / factor as i32);
@@ -374,22 +383,23 @@ impl FineCrop {
 }
 
 /// The fine stage's matches as (scan px, full-resolution photo px) pairs, guided: a match
-/// must land near where the coarse homography puts its scan point.
+/// must land within 6 pixels of the image at 1/`guide_factor` size that `guide` was
+/// found on, from where `guide` puts its scan point.
 fn guided_pairs(
     model: &SlateModel,
     set: &FeatureSet,
     matches: &[(usize, usize)],
-    coarse_h: &Homography,
+    guide: &Homography,
     crop: &FineCrop,
-    found_at_factor: u32,
+    guide_factor: u32,
 ) -> (Vec<Vec2>, Vec<Vec2>) {
-    let near = 6.0 * found_at_factor as f64;
+    let near = 6.0 * guide_factor as f64;
     let pairs: Vec<(Vec2, Vec2)> = matches
         .iter()
         .filter_map(|&(s, p)| {
             let scan = model.scan.points_px[s];
             let img = to_full(set.points_px[p], crop.factor, crop.origin);
-            ((coarse_h.apply(scan)? - img).norm() <= near).then_some((scan, img))
+            ((guide.apply(scan)? - img).norm() <= near).then_some((scan, img))
         })
         .collect();
     let src: Vec<Vec2> = pairs.iter().map(|p| p.0).collect();

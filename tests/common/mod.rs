@@ -2,6 +2,8 @@
 //! rendered once per test binary into a temporary folder, with their ground truth.
 #![allow(dead_code)]
 
+pub mod tinted;
+
 use calib_targets::fish::{fish_scene_set, render_fish, FishTruth};
 use calib_targets::scene::{
     laser_scene_set, render, render_slate, slate_scene_set, RenderedScene, SceneSpec, SceneTruth, SlateSpec,

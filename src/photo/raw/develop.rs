@@ -7,6 +7,7 @@
 //! 4000x3000 photo holds the samples (24 MB) and the outputs, never a float copy.
 
 use super::RawFrame;
+use crate::photo::counter::{count, Event};
 
 /// Grey-world gains: each channel scaled so its mean equals the mean of the three channel
 /// means (the thesis divides by each mean; keeping the overall mean keeps the exposure).
@@ -81,6 +82,7 @@ impl Neighbours {
 /// Bilinear demosaic: calls `f(y, row)` for each picture row with linear, unbalanced RGB
 /// (1.0 = white level).
 pub fn for_each_row(frame: &RawFrame, mut f: impl FnMut(usize, &[[f32; 3]])) {
+    count(Event::FullDecode);
     let n = Neighbours::of(frame);
     let w = frame.width;
     // Three linear rows with a one-pixel margin each side, rolled down the picture.
@@ -211,6 +213,7 @@ pub fn developed_rgb16(frame: &RawFrame, gw: &GreyWorld, linear: bool) -> Vec<u1
 /// result is centred on full-resolution `factor * i + (factor - 1) / 2`, the convention of
 /// a JPEG decoded at reduced size. Returns (pixels, width, height).
 pub fn binned_grey(frame: &RawFrame, gw: &GreyWorld, factor: usize) -> (Vec<u8>, usize, usize) {
+    count(Event::ReducedDecode);
     let f = factor.max(2) & !1;
     let (w, h) = (frame.width / f, frame.height / f);
     let tone = ToneCurve::srgb(255);

@@ -180,6 +180,7 @@ impl RawFrame {
 
     /// Reads and decodes an ORF file.
     pub fn read(path: &Path) -> Result<RawFrame, RawError> {
+        crate::photo::counter::count(crate::photo::counter::Event::FileRead);
         let bytes = std::fs::read(path).map_err(|cause| RawError::Io { path: path.display().to_string(), cause })?;
         Self::decode(bytes, path)
     }
