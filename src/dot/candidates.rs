@@ -72,7 +72,7 @@ pub struct DotCandidate {
     pub radius_px: f64,
     /// True when the blob has a clipped core (a near dot, or a glint).
     pub saturated_core: bool,
-    /// Pixels of the blob whose laser channel is clipped.
+    /// Pixels of the blob with a clipped channel.
     pub saturated_px: usize,
     /// Contrast along the laser's colour over the local background, less the off-colour
     /// part, in noise sigmas ([`LaserColourModel::score`]), scored on the blob's unclipped
@@ -187,7 +187,11 @@ pub fn find_dot_candidates(
     let mut candidates = Vec::new();
     let mut next = 1u32;
     for start in 0..roi.w * roi.h {
-        if maps.label[start] != 0 || maps.excess[start] < maps.threshold {
+        // A clipped pixel seeds a blob too: near a dot's core the unclipped channels keep
+        // rising while the laser's own has stopped, so the core's colour drifts off the
+        // laser's (a yellow-green dot's core turns yellow, then white) and its contrast
+        // along the laser's colour can fall below zero. Its fringe's colour decides.
+        if maps.label[start] != 0 || (maps.excess[start] < maps.threshold && !maps.saturated[start]) {
             continue;
         }
         let (sx, sy) = (start % roi.w, start / roi.w);
@@ -248,7 +252,7 @@ pub(super) struct RoiMaps {
     pub(super) roi: Roi,
     /// Contrast along the laser's colour over the local background, 8-bit levels.
     pub(super) excess: Vec<f32>,
-    /// The laser's strongest channel is clipped.
+    /// Some channel is clipped.
     pub(super) saturated: Vec<bool>,
     /// Blob id of each pixel, 0 for none yet.
     pub(super) label: Vec<u32>,
@@ -263,7 +267,7 @@ pub(super) struct RoiMaps {
 impl RoiMaps {
     fn new(img: &ColourView, roi: Roi, params: &DotDetectorParams) -> RoiMaps {
         let weights = params.colour.matched_weights(scene_samples(img, roi), SCENE_NOISE_LEVELS);
-        let (g, saturated) = laser_contrast(img, roi, &params.colour, weights);
+        let (g, saturated) = laser_contrast(img, roi, weights);
         let excess = minus_local_background(&g, roi, params.background_radius_px);
         let sigma = robust_noise(&excess);
         let threshold = (params.threshold_sigma * sigma).max(params.min_excess_levels) as f32;
@@ -316,20 +320,19 @@ fn scene_samples<'a>(img: &'a ColourView<'a>, roi: Roi) -> impl Iterator<Item = 
 }
 
 /// The laser's contrast over the ROI: each pixel projected on the laser's colour with white
-/// removed ([`LaserColourModel::weights`]), and where the laser's strongest channel clips.
-fn laser_contrast(img: &ColourView, roi: Roi, colour: &LaserColourModel, weights: [f64; 3]) -> (Vec<f32>, Vec<bool>) {
+/// removed (`weights`, [`LaserColourModel::matched_weights`]), and where any channel clips.
+fn laser_contrast(img: &ColourView, roi: Roi, weights: [f64; 3]) -> (Vec<f32>, Vec<bool>) {
     let (w, h) = (roi.w, roi.h);
     let [wr, wg, wb] = weights.map(|v| v as f32);
-    let strongest = (0..3).max_by(|&a, &b| colour.rgb[a].total_cmp(&colour.rgb[b])).unwrap_or(1);
     let mut g = vec![0f32; w * h];
     let mut saturated = vec![false; w * h];
     for y in 0..h {
         for x in 0..w {
             let (r, gg, b) = img.rgb(roi.x0 + x, roi.y0 + y);
             g[y * w + x] = wr * r as f32 + wg * gg as f32 + wb * b as f32;
-            // A clipped laser channel shows no contrast however bright the dot is, so it
-            // counts as core.
-            saturated[y * w + x] = [r, gg, b][strongest] >= CLIPPED;
+            // A clipped channel shows no contrast however bright the dot is, so it counts
+            // as core.
+            saturated[y * w + x] = r.max(gg).max(b) >= CLIPPED;
         }
     }
     (g, saturated)

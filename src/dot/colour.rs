@@ -152,7 +152,11 @@ impl LaserColourModel {
         if wa <= 1e-12 {
             return self.along;
         }
-        add(self.along, scale(self.across, wo / wa))
+        // Never whiten so hard that a laser whose chroma lies at the edge of the model's
+        // tolerance ([`Self::score_with`]) keeps less than half its contrast: scene clutter
+        // along a yellow-green laser's colour (a yellow slate) must not null the dot.
+        let limit = 0.5 / (2.0 * self.spread_rad).tan().max(1e-3);
+        add(self.along, scale(self.across, (wo / wa).clamp(-limit, limit)))
     }
 
     /// Scores the mean excess `mean_excess` (R, G, B levels) of `pixels` unclipped pixels
