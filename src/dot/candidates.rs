@@ -412,22 +412,24 @@ fn blob_candidate(
     let m = measure_blob(maps, pixels)?;
     // Centre: intensity-weighted centroid of the blob (the core weighted at the peak),
     // over the blob's pixels grown by two, so the weights fall off symmetrically.
+    if m.snr < params.min_snr {
+        return None;
+    }
     let (cx, cy) = weighted_centre(maps, id, m.bbox, m.peak as f32);
     let rough = Vec2::new((maps.roi.x0 as f64) + cx, (maps.roi.y0 as f64) + cy);
     let radius_px = (pixels.len() as f64 / core::f64::consts::PI).sqrt();
+    // Colour before centring: most blobs of a textured scene fail it, and the centring
+    // (three background fits and a matched filter) is the costly step.
+    let colour = blob_colour(img, maps, id, rough, radius_px, m.saturated_pixels > 0)?;
+    let score = params.colour.score_with(maps.weights, colour.excess_rgb, colour.pixels, maps.sigma);
+    if score.sigmas < params.min_colour_sigmas {
+        return None;
+    }
     let centre = refine_centre(img, rough, radius_px).unwrap_or(rough);
     if let Some((line, half)) = &region.band {
         if distance_to_polyline(line, centre) > *half {
             return None;
         }
-    }
-    if m.snr < params.min_snr {
-        return None;
-    }
-    let colour = blob_colour(img, maps, id, rough, radius_px, m.saturated_pixels > 0)?;
-    let score = params.colour.score_with(maps.weights, colour.excess_rgb, colour.pixels, maps.sigma);
-    if score.sigmas < params.min_colour_sigmas {
-        return None;
     }
     Some(DotCandidate {
         pixel: centre,
