@@ -10,7 +10,7 @@ use super::signing::PriorUnit;
 use super::signing::{self, SigningArgs};
 use crate::atomic_file::write_atomically;
 use crate::documents::laser::{
-    DotsFileJson, DotsFrameJson, LabEquivalentJson, LaserDocument, LaserLineJson, SkippedTaskJson,
+    DotsFileJson, DotsFrameJson, LabEquivalentJson, LaserColourJson, LaserDocument, LaserLineJson, SkippedTaskJson,
     COVARIANCE_PARAMETERS,
 };
 use crate::documents::refused::RefusedDocument;
@@ -445,6 +445,11 @@ fn document(args: &LaserArgs, job: &LaserJob, cal: &LaserCalibration, identity: 
         camera_serial: serial.clone(),
         focal_length_mm: *focal,
         photo_exif: exif.clone(),
+        laser_colour: cal.laser_colour.map(|c| LaserColourJson {
+            rgb: c.rgb,
+            spread_rad: c.spread_rad,
+            dots: c.to_unit().dots,
+        }),
         unit: None,
         dots_file: None,
         lab_equivalent: None,
@@ -588,8 +593,7 @@ fn unit_contents<'a>(target: &'a str, camera: &CameraModel, cal: &LaserCalibrati
         },
         target: Some(target),
         provenance: Provenance::Fitted,
-        // Not learned yet: the dot model that learns it fills this in.
-        laser_colour: None,
+        laser_colour: cal.laser_colour.map(|c| c.to_unit()),
     }
 }
 
@@ -610,6 +614,27 @@ fn photo_table(photos: &[PhotoReport]) -> String {
     s
 }
 
+/// For each photo whose dot was not used or that had rivals: its candidates and what the
+/// consensus over photos made of them.
+fn candidate_lines(photos: &[PhotoReport]) -> String {
+    let mut s = String::new();
+    for p in photos.iter().filter(|p| p.status != PhotoStatus::Used || p.candidates.len() > 1) {
+        if p.candidates.is_empty() {
+            continue;
+        }
+        s += &format!("  {} candidates:", name_of(&p.file));
+        for c in &p.candidates {
+            let off = c.line_offset_px.map_or("-".into(), |o| format!("{o:.1}"));
+            s += &format!(
+                " ({:.1}, {:.1}) colour {:.0} sigma, {:.0} deg, r {:.1} px, {off} px off the line: {:?};",
+                c.px[0], c.px[1], c.colour_score, c.colour_angle_deg, c.radius_px, c.role
+            );
+        }
+        s += "\n";
+    }
+    s
+}
+
 fn summary(args: &LaserArgs, job: &LaserJob, cal: &LaserCalibration) -> String {
     let f = &cal.fit;
     let l = &f.laser;
@@ -623,6 +648,17 @@ fn summary(args: &LaserArgs, job: &LaserJob, cal: &LaserCalibration) -> String {
     );
     s += &format!("photos: {used} used, {} skipped\n", cal.photos.len() - used);
     s += &photo_table(&cal.photos);
+    s += &candidate_lines(&cal.photos);
+    if let Some(c) = &cal.laser_colour {
+        s += &format!(
+            "laser colour: RGB ({:.3}, {:.3}, {:.3}), spread {:.1} deg, from {} dots\n",
+            c.rgb[0],
+            c.rgb[1],
+            c.rgb[2],
+            c.spread_rad.to_degrees(),
+            c.to_unit().dots
+        );
+    }
     let worst = f
         .photos
         .iter()

@@ -34,6 +34,15 @@ pub struct LaserLineJson {
     pub covariance_parameters: Vec<String>,
 }
 
+/// The laser's colour as the laser result records it (the signed unit file's
+/// `laser_colour`).
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct LaserColourJson {
+    pub rgb: [f64; 3],
+    pub spread_rad: f64,
+    pub dots: u16,
+}
+
 /// `fslcal laser`'s result. The fit's figures are optional when read (see the module
 /// documentation); the command always writes them.
 #[derive(Clone, Debug, Serialize, Deserialize)]
@@ -80,6 +89,11 @@ pub struct LaserDocument {
     /// Each photo's EXIF, in the order of `photos`; `null` for a photo without EXIF.
     #[serde(default, deserialize_with = "report_part")]
     pub photo_exif: Vec<Option<PhotoExif>>,
+    /// The laser's colour learned from the used dots: unit (R, G, B) of a dot's excess over
+    /// its background, the 1-sigma spread of the dots' chroma around it, and how many dots
+    /// (absent when fewer than three detected dots were used, and in older files).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub laser_colour: Option<LaserColourJson>,
     /// `FSL-NN`: never written by `fslcal laser`, read when a hand-made file names its unit.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub unit: Option<String>,

@@ -1,6 +1,7 @@
 //! The laser chain: photos of a target with the dot on it, through the dots' 3D points, to
 //! a fitted laser line with its covariance and quality gates.
 
+pub mod consensus;
 pub mod fit;
 #[cfg(feature = "vision")]
 pub mod gates;

@@ -119,6 +119,9 @@ pub enum SkipReason {
     NoDotOnTarget,
     /// Blobs were found, but the fit could use none of them.
     NoUsableDot,
+    /// Two blobs lie on the laser's image, too close to the line to tell which is the dot:
+    /// withheld rather than guessed.
+    AmbiguousDot { candidates: usize },
     /// The fit was refused, so no photo was fitted.
     NotFitted,
     /// The robust fit left the dot out.
@@ -131,6 +134,10 @@ impl fmt::Display for SkipReason {
             SkipReason::Target(miss) => miss.fmt(f),
             SkipReason::NoDotOnTarget => f.write_str("no laser dot found on the target"),
             SkipReason::NoUsableDot => f.write_str("no usable dot"),
+            SkipReason::AmbiguousDot { candidates } => write!(
+                f,
+                "ambiguous: {candidates} dot-like blobs on the laser's image, none clearly the dot (give it by hand)"
+            ),
             SkipReason::NotFitted => f.write_str("not fitted (the fit was refused)"),
             SkipReason::Outlier(why) => write!(f, "outlier: {why}"),
         }
@@ -169,6 +176,47 @@ pub struct PhotoReport {
     pub board: Option<BoardInImage>,
     /// Feature inliers of a slate's match (checkerboards: none).
     pub target_inliers: Option<usize>,
+    /// Every dot-like blob the search found on the target, and what the consensus over
+    /// photos made of it (absent in files written before; empty for a hand-given dot).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub candidates: Vec<CandidateReport>,
+}
+
+/// What the consensus over photos made of one candidate.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum CandidateRole {
+    /// On the line most photos agree on: the photo's dot.
+    Chosen,
+    /// Off that line, but so strong a dot that the fit judges it (an outlier if the laser
+    /// has not moved).
+    StrongOffLine,
+    /// On the line's image with another blob as close: the photo is withheld.
+    Ambiguous,
+    /// Off the line: a glint, a reflection, tape or texture.
+    OffLine,
+    /// No consensus line was found (the fit decided alone).
+    Undecided,
+}
+
+/// One candidate as the report lists it.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct CandidateReport {
+    pub px: [f64; 2],
+    /// Contrast along the laser's colour over the local background less its off-colour
+    /// part, noise sigmas.
+    pub colour_score: f64,
+    /// Angle between its chroma and the laser's, degrees.
+    pub colour_angle_deg: f64,
+    /// Matched-filter SNR, peak contrast (8-bit levels) and equivalent radius (px).
+    pub snr: f64,
+    pub peak_levels: f64,
+    pub radius_px: f64,
+    /// Pixels of its core with the laser's channel clipped.
+    pub saturated_px: usize,
+    /// Distance from the consensus line's image on this photo's target, pixels.
+    pub line_offset_px: Option<f64>,
+    pub role: CandidateRole,
 }
 
 impl PhotoReport {
@@ -186,6 +234,7 @@ impl PhotoReport {
             board_rms_px: None,
             board: None,
             target_inliers: None,
+            candidates: Vec::new(),
         }
     }
 

@@ -7,10 +7,12 @@
 //! found nothing usable get a second, more sensitive look near where the first fit says the
 //! dot must be, and the fit is repeated.
 
+use super::consensus::{self, Choice, PhotoCandidates};
 use super::gates::{self, GateResult};
 use super::target::{locate_target, LocatedTarget, Target};
 use crate::dot::candidates::SearchRegion;
 use crate::dot::candidates::{ChannelOrder, ColourView, DotCandidate, DotDetectorParams};
+use crate::dot::colour::LaserColourModel;
 use crate::dot::near_prediction;
 use crate::dot::on_target::{detected_sigma_px, hand_candidate, HAND_DOT_SIGMA_PX};
 use crate::laser::fit::{self, DotObservation, FitError, Gates, LaserFit, Method};
@@ -22,7 +24,9 @@ use std::collections::HashMap;
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicUsize, Ordering};
 
-pub use super::outcome::{BoardInImage, DotSource, PhotoReport, PhotoStatus, SkipReason, TargetMiss};
+pub use super::outcome::{
+    BoardInImage, CandidateReport, CandidateRole, DotSource, PhotoReport, PhotoStatus, SkipReason, TargetMiss,
+};
 
 /// What was learned from one photo before fitting.
 #[derive(Clone, Debug)]
@@ -33,8 +37,13 @@ pub struct PhotoEvidence {
     pub board_outline_px: Vec<Vec2>,
     /// A checkerboard's inner corners as refined, row by row (a slate has none), pixels.
     pub corners_px: Vec<Vec2>,
-    /// Dot candidates on the board, best first.
+    /// Dot candidates the fit may use, best first: after the consensus over photos, the
+    /// chosen one alone (or none).
     pub candidates: Vec<DotCandidate>,
+    /// Every candidate the search found on the target, as found (for the report).
+    pub found: Vec<DotCandidate>,
+    /// What the consensus over photos chose (`None`: hand-given dot, or no consensus).
+    pub choice: Option<Choice>,
     pub dot_source: DotSource,
     /// Reduction factor the board was found at (4 = quarter size).
     pub found_at_factor: u32,
@@ -123,6 +132,8 @@ pub struct LaserCalibration {
     pub gates: Vec<GateResult>,
     /// "x of N": photos whose dot disagreed with the line and were left out.
     pub outliers: (usize, usize),
+    /// The laser's colour learned from the used, detected dots (`None` below three).
+    pub laser_colour: Option<LaserColourModel>,
 }
 
 impl LaserCalibration {
@@ -213,7 +224,9 @@ fn examine(job: &LaserJob, path: &Path, budget: &CropBudget) -> Result<PhotoResu
         pose,
         board_outline_px: outline,
         corners_px: corners,
+        found: candidates.clone(),
         candidates,
+        choice: None,
         dot_source,
         found_at_factor,
         target_inliers: inliers,
@@ -276,6 +289,7 @@ pub fn calibrate(
         })
         .collect::<Result<_, _>>()?;
 
+    choose_jointly(job, &mut results);
     let observations = |results: &[PhotoResult]| -> Vec<Option<DotObservation>> {
         results.iter().map(|r| r.as_ref().ok().and_then(observation)).collect()
     };
@@ -288,18 +302,27 @@ pub fn calibrate(
                 .iter()
                 .enumerate()
                 .filter(|(i, r)| match r {
+                    // An ambiguous photo stays withheld: a second look near the line
+                    // would only pick one of its rivals.
                     Ok(e) => {
-                        e.dot_source != DotSource::Hand && first.photos[*i].as_ref().is_none_or(|p| p.outlier.is_some())
+                        e.dot_source != DotSource::Hand
+                            && !matches!(e.choice, Some(Choice::Ambiguous { .. }))
+                            && first.photos[*i].as_ref().is_none_or(|p| p.outlier.is_some())
                     }
                     Err(_) => false,
                 })
                 .map(|(i, _)| i)
                 .collect();
+            // The second look knows the laser's colour from the first fit's dots.
+            let mut second = job.clone();
+            if let Some(colour) = learn_colour(&results, &first) {
+                second.detector.colour = colour;
+            }
             let found: Vec<(usize, Option<DotCandidate>)> = retry
                 .par_iter()
                 .map(|&i| {
                     let e = results[i].as_ref().expect("retry holds only photos with evidence");
-                    (i, search_near_prediction(job, &photos[i], e, &first.laser))
+                    (i, search_near_prediction(&second, &photos[i], e, &first.laser))
                 })
                 .collect();
             let mut changed = false;
@@ -324,18 +347,70 @@ pub fn calibrate(
     let fit = match fit {
         Ok(f) => f,
         Err(source) => {
-            let photos = report_photos(photos, &results, None);
+            let photos = report_photos(&job.camera, photos, &results, None);
             return Err(LaserError::Fit { source, photos });
         }
     };
-    let photo_reports = report_photos(photos, &results, Some(&fit));
+    let photo_reports = report_photos(&job.camera, photos, &results, Some(&fit));
     let present = fit.photos.iter().flatten().count();
     let outliers = (present - fit.used, present);
     let gates = gates::gate(job, &fit, outliers);
-    Ok(LaserCalibration { fit, photos: photo_reports, gates, outliers })
+    let laser_colour = learn_colour(&results, &fit);
+    Ok(LaserCalibration { fit, photos: photo_reports, gates, outliers, laser_colour })
 }
 
-fn report_photos(paths: &[PathBuf], results: &[PhotoResult], fit: Option<&LaserFit>) -> Vec<PhotoReport> {
+/// Each photo's dot chosen jointly over photos ([`consensus::choose`]): the fit sees the
+/// chosen candidate alone, or nothing for a photo the consensus line misses or cannot
+/// decide. Without a consensus the candidates stay as found, for the fit to refuse with
+/// its reason.
+fn choose_jointly(job: &LaserJob, results: &mut [PhotoResult]) {
+    let detected: Vec<usize> = results
+        .iter()
+        .enumerate()
+        .filter(|(_, r)| r.as_ref().is_ok_and(|e| e.dot_source == DotSource::Detected))
+        .map(|(i, _)| i)
+        .collect();
+    let photos: Vec<PhotoCandidates> = detected
+        .iter()
+        .map(|&i| {
+            let e = results[i].as_ref().expect("filtered to evidence");
+            PhotoCandidates { plane: e.pose.plane(), candidates: &e.found }
+        })
+        .collect();
+    let gate_px = 3.0 * job.gates.max_dot_offset_px;
+    let Some(choices) = consensus::choose(&job.camera, &photos, gate_px, job.gates.min_photos) else {
+        return;
+    };
+    for (&i, choice) in detected.iter().zip(choices) {
+        let e = results[i].as_mut().expect("filtered to evidence");
+        e.candidates = match choice {
+            Choice::OnLine { index, .. } | Choice::StrongOffLine { index, .. } => vec![e.found[index].clone()],
+            Choice::Ambiguous { .. } | Choice::None | Choice::Empty => Vec::new(),
+        };
+        e.choice = Some(choice);
+    }
+}
+
+/// The laser's colour from the used photos' detected dots (hand-given dots have none).
+fn learn_colour(results: &[PhotoResult], fit: &LaserFit) -> Option<LaserColourModel> {
+    let excesses: Vec<[f64; 3]> = results
+        .iter()
+        .zip(&fit.photos)
+        .filter_map(|(r, pf)| {
+            let e = r.as_ref().ok()?;
+            let used = pf.as_ref().is_some_and(|p| p.outlier.is_none());
+            (used && e.dot_source != DotSource::Hand).then(|| e.candidates.first().map(|c| c.excess_rgb)).flatten()
+        })
+        .collect();
+    LaserColourModel::learn(&excesses)
+}
+
+fn report_photos(
+    camera: &CameraModel,
+    paths: &[PathBuf],
+    results: &[PhotoResult],
+    fit: Option<&LaserFit>,
+) -> Vec<PhotoReport> {
     paths
         .iter()
         .zip(results)
@@ -344,7 +419,44 @@ fn report_photos(paths: &[PathBuf], results: &[PhotoResult], fit: Option<&LaserF
             let file = path.display().to_string();
             match r {
                 Err(miss) => PhotoReport::new(file, Some(miss.clone().map(SkipReason::Target))),
-                Ok(e) => report_photo(file, e, fit, fit.and_then(|f| f.photos[i].as_ref())),
+                Ok(e) => {
+                    let mut rep = report_photo(file, e, fit, fit.and_then(|f| f.photos[i].as_ref()));
+                    rep.candidates = candidate_reports(camera, e, fit.map(|f| &f.laser));
+                    rep
+                }
+            }
+        })
+        .collect()
+}
+
+/// Every candidate found on a photo's target with what the consensus made of it and its
+/// offset from the fitted line's image.
+fn candidate_reports(camera: &CameraModel, e: &PhotoEvidence, line: Option<&LaserLine>) -> Vec<CandidateReport> {
+    if e.dot_source == DotSource::Hand {
+        return Vec::new();
+    }
+    let q = line.and_then(|l| l.hit(&e.pose.plane())).and_then(|p| camera.project(&p));
+    e.found
+        .iter()
+        .enumerate()
+        .map(|(k, c)| {
+            let role = match e.choice {
+                None => CandidateRole::Undecided,
+                Some(Choice::OnLine { index, .. }) if index == k => CandidateRole::Chosen,
+                Some(Choice::StrongOffLine { index, .. }) if index == k => CandidateRole::StrongOffLine,
+                Some(Choice::Ambiguous { first, second }) if first == k || second == k => CandidateRole::Ambiguous,
+                Some(_) => CandidateRole::OffLine,
+            };
+            CandidateReport {
+                px: [c.pixel.x, c.pixel.y],
+                colour_score: c.colour_score,
+                colour_angle_deg: c.colour_angle_rad.to_degrees(),
+                snr: c.snr,
+                peak_levels: c.peak_green,
+                radius_px: c.radius_px,
+                saturated_px: c.saturated_px,
+                line_offset_px: q.map(|q| (q - c.pixel).norm()),
+                role,
             }
         })
         .collect()
@@ -354,6 +466,10 @@ fn report_photos(paths: &[PathBuf], results: &[PhotoResult], fit: Option<&LaserF
 fn report_photo(file: String, e: &PhotoEvidence, fit: Option<&LaserFit>, pf: Option<&fit::PhotoFit>) -> PhotoReport {
     let why_not = match (pf, e.candidates.is_empty(), fit) {
         (Some(pf), _, _) => pf.outlier.map(SkipReason::Outlier),
+        (None, true, _) if matches!(e.choice, Some(Choice::Ambiguous { .. })) => {
+            Some(SkipReason::AmbiguousDot { candidates: e.found.len() })
+        }
+        (None, true, _) if !e.found.is_empty() => Some(SkipReason::NoUsableDot),
         (None, true, _) => Some(SkipReason::NoDotOnTarget),
         (None, false, None) => Some(SkipReason::NotFitted),
         (None, false, Some(_)) => Some(SkipReason::NoUsableDot),

@@ -10,7 +10,7 @@ use super::thumbnail::{self, Overlay};
 use super::{add_plot, file_name, thumbnail_cells, Cell, Page, ReportError, ReportFiles, Verdict};
 use crate::laser::fit::{distance_sigma, FitError};
 use crate::laser::gates::GateResult;
-use crate::laser::pipeline::{LaserCalibration, LaserJob, PhotoReport, PhotoStatus};
+use crate::laser::pipeline::{CandidateRole, LaserCalibration, LaserJob, PhotoReport, PhotoStatus};
 use fslcal_core::{CameraModel, LaserLine, Vec2, Vec3};
 use nalgebra::Matrix4;
 use std::path::{Path, PathBuf};
@@ -247,6 +247,7 @@ pub fn write(dir: &Path, report: &LaserReport) -> Result<PathBuf, ReportError> {
         fit_plots(&mut page, &mut files, job, cal, &points)?;
     }
     photo_section(&mut page, &mut files, photos, camera, cal.map(|c| &c.fit.laser));
+    candidate_section(&mut page, photos);
     page.heading("How to read this");
     page.note(
         "See docs/how-to-calibrate.md in the fslcal repository: what RMS, worst offset, outliers, span and \
@@ -382,6 +383,59 @@ fn key_figures(
     ];
     page.heading("Key figures");
     page.table(&["figure", "value"], &[false, false], rows);
+}
+
+/// Every photo's dot candidates and what the consensus over photos made of them: why the
+/// chosen one won (on the line most photos agree on) or why none was used.
+fn candidate_section(page: &mut Page, photos: &[PhotoReport]) {
+    let rows: Vec<Vec<Cell>> = photos
+        .iter()
+        .flat_map(|p| {
+            p.candidates.iter().map(move |c| {
+                let role = match c.role {
+                    CandidateRole::Chosen => Cell::Good("chosen: on the line most photos agree on".into()),
+                    CandidateRole::StrongOffLine => Cell::Bad("off the line but strong: judged by the fit".into()),
+                    CandidateRole::Ambiguous => Cell::Bad("ambiguous: another blob as close to the line".into()),
+                    CandidateRole::OffLine => Cell::Text("off the line".into()),
+                    CandidateRole::Undecided => Cell::Text("no consensus line".into()),
+                };
+                vec![
+                    file_name(&p.file).into(),
+                    format!("({:.1}, {:.1})", c.px[0], c.px[1]).into(),
+                    format!("{:.0}", c.colour_score).into(),
+                    format!("{:.0}", c.colour_angle_deg).into(),
+                    format!("{:.1}", c.radius_px).into(),
+                    c.saturated_px.to_string().into(),
+                    c.line_offset_px.map_or("-".into(), |o| format!("{o:.1}")).into(),
+                    role,
+                ]
+            })
+        })
+        .collect();
+    if rows.is_empty() {
+        return;
+    }
+    page.heading("Dot candidates");
+    page.note(
+        "Every dot-like blob found on each photo's target. Colour: contrast along the laser's colour over the local \
+         background, less its off-colour part, in noise sigmas, and the angle of its chroma from the laser's. The \
+         dot is chosen jointly over photos: the candidate on the one 3D line most photos agree on, never the \
+         strongest blob of a photo.",
+    );
+    page.table(
+        &[
+            "file",
+            "blob (px)",
+            "colour (sigma)",
+            "chroma angle (deg)",
+            "radius (px)",
+            "clipped px",
+            "off line (px)",
+            "decision",
+        ],
+        &[false, true, true, true, true, true, true, false],
+        rows,
+    );
 }
 
 fn photo_section(

@@ -1,0 +1,145 @@
+//! `cargo bench --bench dot_search [-- DIR...]`: the dot search's time per photo on one core,
+//! and how the colour score separates true dots from each impostor kind (issue 14).
+//!
+//! For every `photo_NN.jpg` with its `photo_NN.truth.json` in the given set folders (default:
+//! the held-out sets in /work/cache/heldout, docs/scene-variety.md), the whole frame is
+//! searched with the default detector and timed (the worst case: the calibration search
+//! covers only the target's image, the target-less search a band along the laser), then
+//! searched again without the colour floor so that every blob is scored. Each blob is
+//! labelled by the truth: the dot (within 2 px), the impostor it lies on, or texture. Prints the median and worst search time and a
+//! histogram of colour scores per label. Asserts nothing about time.
+
+use fslcal::dot::candidates::{find_dot_candidates, ChannelOrder, ColourView, DotDetectorParams, SearchRegion};
+use serde_json::Value;
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+/// Colour score bin edges, sigmas.
+const EDGES: [f64; 8] = [f64::NEG_INFINITY, 0.0, 4.0, 10.0, 30.0, 100.0, 300.0, f64::INFINITY];
+
+fn photos(dirs: &[PathBuf]) -> Vec<PathBuf> {
+    let mut v = Vec::new();
+    for d in dirs {
+        let Ok(rd) = std::fs::read_dir(d) else { continue };
+        let mut here: Vec<PathBuf> =
+            rd.flatten().map(|e| e.path()).filter(|p| p.extension().is_some_and(|x| x == "jpg")).collect();
+        here.sort();
+        v.extend(here);
+    }
+    v
+}
+
+/// The truth's label for a blob at `px`: "dot", the impostor kind it lies on, or "texture".
+fn label(truth: &Value, px: [f64; 2]) -> String {
+    if let Some(p) = truth["dot"]["pixel"].as_array() {
+        let (x, y) = (p[0].as_f64().unwrap_or(f64::NAN), p[1].as_f64().unwrap_or(f64::NAN));
+        if (x - px[0]).hypot(y - px[1]) <= 2.0 {
+            return "dot".into();
+        }
+        let r = truth["dot"]["radius_px"].as_f64().unwrap_or(0.0);
+        if (x - px[0]).hypot(y - px[1]) <= r + 3.0 {
+            return "dot (off by > 2 px)".into();
+        }
+    }
+    for imp in truth["impostors"].as_array().into_iter().flatten() {
+        let p = &imp["pixel"];
+        let (x, y) = (p[0].as_f64().unwrap_or(f64::NAN), p[1].as_f64().unwrap_or(f64::NAN));
+        let r = imp["radius_px"].as_f64().unwrap_or(0.0);
+        if (x - px[0]).hypot(y - px[1]) <= r + 3.0 {
+            return imp["kind"].as_str().unwrap_or("impostor").to_string();
+        }
+    }
+    "texture".into()
+}
+
+fn bin(score: f64) -> usize {
+    EDGES.windows(2).position(|w| score >= w[0] && score < w[1]).unwrap_or(EDGES.len() - 2)
+}
+
+fn main() {
+    let args: Vec<String> = std::env::args().skip(1).filter(|a| !a.starts_with("--")).collect();
+    let full = std::env::args().any(|a| a == "--bench");
+    let dirs: Vec<PathBuf> = if args.is_empty() {
+        std::fs::read_dir("/work/cache/heldout").map_or_else(
+            |_| Vec::new(),
+            |rd| {
+                let mut v: Vec<PathBuf> = rd.flatten().map(|e| e.path()).collect();
+                v.sort();
+                v
+            },
+        )
+    } else {
+        args.iter().map(PathBuf::from).collect()
+    };
+    let mut list = photos(&dirs);
+    if !full {
+        list.truncate(1);
+    }
+    if list.is_empty() {
+        println!("dot_search: no photos in {dirs:?}; render a set (docs/scene-variety.md) and name its folder");
+        return;
+    }
+    let params = DotDetectorParams { min_colour_sigmas: f64::NEG_INFINITY, ..DotDetectorParams::default() };
+    let mut times_ms = Vec::new();
+    let mut hist: BTreeMap<String, [usize; EDGES.len() - 1]> = BTreeMap::new();
+    for path in &list {
+        let Ok(img) = image::open(path) else { continue };
+        let img = img.to_rgb8();
+        let view = ColourView {
+            width: img.width() as usize,
+            height: img.height() as usize,
+            stride: img.width() as usize * 3,
+            order: ChannelOrder::Rgb,
+            data: img.as_raw(),
+        };
+        let t = Instant::now();
+        let _ = find_dot_candidates(&view, &SearchRegion::default(), &DotDetectorParams::default(), 64);
+        times_ms.push((t.elapsed().as_secs_f64() * 1e3, img.width(), img.height()));
+        let found = find_dot_candidates(&view, &SearchRegion::default(), &params, 64);
+        let truth: Value = std::fs::read_to_string(path.with_extension("truth.json"))
+            .ok()
+            .and_then(|s| serde_json::from_str(&s).ok())
+            .unwrap_or(Value::Null);
+        for c in &found {
+            hist.entry(label(&truth, [c.pixel.x, c.pixel.y])).or_insert([0; EDGES.len() - 1])[bin(c.colour_score)] += 1;
+        }
+    }
+    report(&list, &times_ms, &hist);
+}
+
+fn report(list: &[PathBuf], times_ms: &[(f64, u32, u32)], hist: &BTreeMap<String, [usize; EDGES.len() - 1]>) {
+    let mut t: Vec<f64> = times_ms.iter().map(|x| x.0).collect();
+    t.sort_by(f64::total_cmp);
+    let sizes: Vec<String> = times_ms
+        .iter()
+        .map(|x| format!("{}x{}", x.1, x.2))
+        .collect::<std::collections::BTreeSet<_>>()
+        .into_iter()
+        .collect();
+    println!(
+        "dot search, whole frame, one thread, {} photos ({}) from {}: median {:.1} ms, worst {:.1} ms (target < 40 ms)",
+        t.len(),
+        sizes.join(", "),
+        list.first()
+            .and_then(|p| p.parent())
+            .and_then(Path::parent)
+            .map_or_else(String::new, |p| p.display().to_string()),
+        t[t.len() / 2],
+        t[t.len() - 1],
+    );
+    println!("\ncolour score (sigmas) of every blob the search returns, by what the truth says it is");
+    let heads: Vec<String> = EDGES
+        .windows(2)
+        .map(|w| match (w[0].is_finite(), w[1].is_finite()) {
+            (false, _) => format!("< {}", w[1]),
+            (_, false) => format!(">= {}", w[0]),
+            _ => format!("{}-{}", w[0], w[1]),
+        })
+        .collect();
+    println!("| blob | {} |", heads.join(" | "));
+    println!("|---|{}", "---|".repeat(heads.len()));
+    for (k, counts) in hist {
+        println!("| {k} | {} |", counts.iter().map(|c| c.to_string()).collect::<Vec<_>>().join(" | "));
+    }
+}

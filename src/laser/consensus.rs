@@ -1,0 +1,242 @@
+//! Choosing each calibration photo's dot jointly: one candidate or none per photo, so that
+//! the chosen dots lie on one 3D line, before the robust fit sees them.
+//!
+//! The strongest blob of a photo is often not the dot (a glint, the laser's reflection, tape
+//! on the board's margin); what is true of every real dot is that it lies on the laser. A
+//! RANSAC over pairs of photos and their candidates proposes lines; the line that explains
+//! the most photos, then the most colour evidence, wins. A photo gets the candidate the line
+//! passes closest to, when it is within the gate and no rival is nearly as close (then it is
+//! ambiguous and withheld); a photo the line misses gets none, unless its best candidate is
+//! so strong a dot that leaving it out would hide a laser that moved: that one goes to the
+//! fit as it is, to be named an outlier there.
+
+use crate::dot::candidates::DotCandidate;
+use crate::laser::fit::dot_point;
+use fslcal_core::{CameraModel, LaserLine, Plane, Vec2};
+
+/// Candidates per photo the consensus looks at, best colour score first.
+const CANDIDATES_PER_PHOTO: usize = 6;
+
+/// A candidate this many colour sigmas strong is a dot whatever the line says: off the
+/// consensus, it is evidence that the laser moved, not noise to drop.
+pub const STRONG_COLOUR_SIGMAS: f64 = 60.0;
+
+/// A rival candidate within this factor of the chosen one's distance to the line, or within
+/// half the gate, makes the photo ambiguous: a line through two photos' dots is uncertain
+/// by a few pixels, so two blobs that close to it are both on it.
+const RIVAL_RATIO: f64 = 2.0;
+
+/// One photo's input: its target's plane and its candidates.
+pub struct PhotoCandidates<'a> {
+    pub plane: Plane,
+    pub candidates: &'a [DotCandidate],
+}
+
+/// What the consensus decided for one photo.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Choice {
+    /// Candidate `index` lies on the consensus line, `offset_px` from its image.
+    OnLine { index: usize, offset_px: f64 },
+    /// Two candidates lie on the line's image within the gate, too close to tell apart.
+    Ambiguous { first: usize, second: usize },
+    /// The line misses every candidate; the best one is strong enough to be a dot (kept for
+    /// the fit to judge).
+    StrongOffLine { index: usize, offset_px: f64 },
+    /// No candidate near the line, none strong: no usable dot.
+    None,
+    /// The photo had no candidates.
+    Empty,
+}
+
+/// Candidate indices of a photo, best colour score first, at most [`CANDIDATES_PER_PHOTO`].
+fn ranked(c: &[DotCandidate]) -> Vec<usize> {
+    let mut idx: Vec<usize> = (0..c.len()).collect();
+    idx.sort_by(|&a, &b| c[b].colour_score.total_cmp(&c[a].colour_score));
+    idx.truncate(CANDIDATES_PER_PHOTO);
+    idx
+}
+
+/// Each photo's choice under the line that the most photos agree with. `gate_px`: how far a
+/// chosen dot may lie from the line's image (before the fit refines the line). `None` when
+/// fewer than `min_photos` photos agree on any line.
+pub fn choose(
+    camera: &CameraModel,
+    photos: &[PhotoCandidates],
+    gate_px: f64,
+    min_photos: usize,
+) -> Option<Vec<Choice>> {
+    let ranks: Vec<Vec<usize>> = photos.iter().map(|p| ranked(p.candidates)).collect();
+    let points: Vec<Vec<(usize, fslcal_core::Vec3)>> = photos
+        .iter()
+        .zip(&ranks)
+        .map(|(p, r)| {
+            r.iter().filter_map(|&k| dot_point(camera, &p.plane, p.candidates[k].pixel).map(|q| (k, q))).collect()
+        })
+        .collect();
+    let mut best: Option<(usize, f64, LaserLine)> = None;
+    for i in 0..photos.len() {
+        for j in i + 1..photos.len() {
+            for (_, a) in &points[i] {
+                for (_, b) in &points[j] {
+                    if (a - b).norm() < 0.2 {
+                        continue;
+                    }
+                    let Some(line) = LaserLine::from_point_direction(*a, b - a) else { continue };
+                    let (n, evidence) = support(camera, photos, &ranks, &line, gate_px);
+                    let better = best.as_ref().is_none_or(|(bn, be, _)| n > *bn || (n == *bn && evidence > *be));
+                    if better {
+                        best = Some((n, evidence, line));
+                    }
+                }
+            }
+        }
+    }
+    let (n, _, line) = best?;
+    if n < min_photos {
+        return None;
+    }
+    Some(photos.iter().zip(&ranks).map(|(p, r)| choice(camera, p, r, &line, gate_px)).collect())
+}
+
+/// Photos with a candidate within the gate of `line`'s image, and the colour evidence of
+/// those candidates (the sum of their scores' logarithms, so a crowd of faint blobs does
+/// not outvote a few clear dots).
+fn support(
+    camera: &CameraModel,
+    photos: &[PhotoCandidates],
+    ranks: &[Vec<usize>],
+    line: &LaserLine,
+    gate_px: f64,
+) -> (usize, f64) {
+    let mut n = 0;
+    let mut evidence = 0.0;
+    for (p, r) in photos.iter().zip(ranks) {
+        if let Some((k, _)) = nearest(camera, p, r, line).filter(|(_, d)| *d <= gate_px) {
+            n += 1;
+            evidence += p.candidates[k].colour_score.max(1.0).ln();
+        }
+    }
+    (n, evidence)
+}
+
+/// The candidate nearest where `line` meets the photo's target, and its distance, pixels.
+fn nearest(camera: &CameraModel, p: &PhotoCandidates, rank: &[usize], line: &LaserLine) -> Option<(usize, f64)> {
+    let q: Vec2 = camera.project(&line.hit(&p.plane)?)?;
+    rank.iter().map(|&k| (k, (p.candidates[k].pixel - q).norm())).min_by(|a, b| a.1.total_cmp(&b.1))
+}
+
+fn choice(camera: &CameraModel, p: &PhotoCandidates, rank: &[usize], line: &LaserLine, gate_px: f64) -> Choice {
+    if rank.is_empty() {
+        return Choice::Empty;
+    }
+    let Some(q) = line.hit(&p.plane).and_then(|x| camera.project(&x)) else {
+        return Choice::None;
+    };
+    let mut by_distance: Vec<(usize, f64)> = rank.iter().map(|&k| (k, (p.candidates[k].pixel - q).norm())).collect();
+    by_distance.sort_by(|a, b| a.1.total_cmp(&b.1));
+    let (k, d) = by_distance[0];
+    if d <= gate_px {
+        // A rival inside the gate and about as close: the line cannot tell them apart. Two
+        // blobs of one dot (a core and a detached halo piece) lie within a dot's radius.
+        if let Some(&(k2, d2)) = by_distance.get(1) {
+            let same_dot = (p.candidates[k].pixel - p.candidates[k2].pixel).norm()
+                <= p.candidates[k].radius_px.max(p.candidates[k2].radius_px) + 1.0;
+            if d2 <= gate_px && d2 <= (RIVAL_RATIO * d).max(0.5 * gate_px) && !same_dot {
+                return Choice::Ambiguous { first: k, second: k2 };
+            }
+        }
+        return Choice::OnLine { index: k, offset_px: d };
+    }
+    let strongest = rank[0];
+    if p.candidates[strongest].colour_score >= STRONG_COLOUR_SIGMAS {
+        let offset_px = (p.candidates[strongest].pixel - q).norm();
+        return Choice::StrongOffLine { index: strongest, offset_px };
+    }
+    Choice::None
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use fslcal_core::Vec3;
+
+    fn camera() -> CameraModel {
+        CameraModel {
+            width_px: 2000,
+            height_px: 1500,
+            fx_px: 1475.0,
+            fy_px: 1475.0,
+            cx_px: 1000.0,
+            cy_px: 750.0,
+            distortion: fslcal_core::Distortion::from_opencv([-0.15, 0.07, 0.0, 0.0, -0.01]),
+        }
+    }
+
+    fn candidate(px: Vec2, score: f64) -> DotCandidate {
+        DotCandidate {
+            pixel: px,
+            snr: score,
+            peak_green: 20.0,
+            radius_px: 3.0,
+            saturated_core: false,
+            saturated_px: 0,
+            colour_score: score,
+            colour_angle_rad: 0.1,
+            excess_rgb: [10.0, 30.0, 10.0],
+        }
+    }
+
+    /// Eight fronto-parallel boards from 0.6 to 4 m; in every photo a brighter impostor
+    /// somewhere on the board, in one photo two blobs both on the line's image.
+    #[test]
+    fn the_dots_on_one_line_win_over_stronger_impostors() {
+        let cam = camera();
+        let truth = LaserLine::from_point_direction(Vec3::new(0.1, -0.05, 0.0), Vec3::new(-0.02, 0.01, 1.0)).unwrap();
+        let mut cands: Vec<Vec<DotCandidate>> = Vec::new();
+        let mut planes = Vec::new();
+        for i in 0..8 {
+            let z = 0.6 + 0.5 * i as f64;
+            let plane = Plane::through(Vec3::new(0.0, 0.0, z), Vec3::new(0.0, 0.0, -1.0));
+            let dot = cam.project(&truth.hit(&plane).unwrap()).unwrap();
+            let mut c = vec![candidate(Vec2::new(300.0 + 90.0 * i as f64, 1200.0 - 70.0 * i as f64), 200.0)];
+            c.push(candidate(dot + Vec2::new(0.3, -0.2), 15.0));
+            if i == 5 {
+                c.push(candidate(dot + Vec2::new(4.0, 3.0), 12.0));
+            }
+            cands.push(c);
+            planes.push(plane);
+        }
+        let photos: Vec<PhotoCandidates> =
+            planes.iter().zip(&cands).map(|(p, c)| PhotoCandidates { plane: *p, candidates: c }).collect();
+        let choices = choose(&cam, &photos, 12.0, 3).expect("seven photos agree");
+        for (i, ch) in choices.iter().enumerate() {
+            match (i, ch) {
+                (5, Choice::Ambiguous { .. }) => {}
+                (5, other) => panic!("photo 5 has two blobs on the line: {other:?}"),
+                (_, Choice::StrongOffLine { .. }) | (_, Choice::None) | (_, Choice::Empty) => {
+                    panic!("photo {i}: {ch:?}")
+                }
+                (_, Choice::OnLine { index, offset_px }) => {
+                    assert_eq!(*index, 1, "photo {i}");
+                    assert!(*offset_px < 3.0, "photo {i}: {offset_px}");
+                }
+                (_, Choice::Ambiguous { .. }) => panic!("photo {i}: {ch:?}"),
+            }
+        }
+    }
+
+    #[test]
+    fn too_few_photos_on_any_line_is_no_consensus() {
+        let cam = camera();
+        let planes: Vec<Plane> =
+            (0..3).map(|i| Plane::through(Vec3::new(0.0, 0.0, 1.0 + i as f64), Vec3::new(0.0, 0.0, -1.0))).collect();
+        let cands = [
+            vec![candidate(Vec2::new(100.0, 100.0), 20.0)],
+            vec![candidate(Vec2::new(1900.0, 200.0), 20.0)],
+            vec![candidate(Vec2::new(500.0, 1400.0), 20.0)],
+        ];
+        let photos: Vec<PhotoCandidates> =
+            planes.iter().zip(&cands).map(|(p, c)| PhotoCandidates { plane: *p, candidates: c }).collect();
+        assert!(choose(&cam, &photos, 8.0, 3).is_none());
+    }
+}

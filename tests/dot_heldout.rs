@@ -1,0 +1,64 @@
+//! The calibration's dot choice on a held-out randomised set (issue 14, docs/scene-variety.md):
+//! a seed nobody tuned on, rendered at 3000x2250 to keep CI short (at 2000x1500 the board
+//! finder loses most boards beyond 2 m). Every used dot must be
+//! the right one (within 2 px of the truth), and most photos whose board was found and whose
+//! dot is visible must use it. Photos whose board the finder loses at this size are not the
+//! dot search's to answer.
+
+use calib_targets::variety::{Kind, PhotoTruth, VarietySet, HELD_OUT_FIRST_SEED};
+use calib_targets::Checkerboard;
+use fslcal::camera::opencv_yaml;
+use fslcal::dot::candidates::DotDetectorParams;
+use fslcal::laser::fit::{Gates, Method};
+use fslcal::laser::pipeline::{calibrate, HandDots, LaserJob, PhotoStatus, SkipReason};
+
+/// Held-out seeds of this test: after the bench's default ones (1 000 000 and 1 000 001).
+const SEED: u64 = HELD_OUT_FIRST_SEED + 8;
+
+/// Share of the photos with a found board and a visible dot whose right dot is used: a floor
+/// under today's 4 of 7 on this seed, so a regression fails. The issue's target is 95%
+/// (issue 14); this set does not meet it yet (two faint dots missed, one photo whose
+/// strongest blob, far off the line, is judged an outlier).
+const MIN_RIGHT_SHARE: f64 = 0.5;
+
+#[test]
+fn held_out_calibration_uses_only_right_dots() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    let set = VarietySet::plan(Kind::Calibration, SEED, Some(10), 3000).expect("plan");
+    let photos = set.write(dir.path(), &mut |_| {}).expect("render");
+    let (camera, _) = opencv_yaml::read(&dir.path().join("camera.yml")).expect("camera file");
+    let job = LaserJob {
+        camera,
+        target: Checkerboard::fishsense().into(),
+        method: Method::Reprojection,
+        gates: Gates::default(),
+        detector: DotDetectorParams::default(),
+        hand_dots: HandDots::default(),
+    };
+    let cal = calibrate(&job, &photos, &|| {}).expect("the set calibrates");
+    let (mut eligible, mut right) = (0, 0);
+    for (i, report) in cal.photos.iter().enumerate() {
+        let text = std::fs::read_to_string(photos[i].with_extension("truth.json")).expect("truth file");
+        let truth: PhotoTruth = serde_json::from_str(&text).expect("truth parses");
+        let board_found = !matches!(report.reason.as_ref().and_then(|r| r.kind()), Some(SkipReason::Target(_)));
+        if report.status == PhotoStatus::Used {
+            let dot = report.dot_px.expect("a used photo has a dot");
+            let t = truth.dot.as_ref().unwrap_or_else(|| panic!("{}: used, but no dot in the truth", report.file));
+            let err = (dot[0] - t.pixel[0]).hypot(dot[1] - t.pixel[1]);
+            assert!(err <= 2.0, "{}: a wrong dot used in the fit, {err:.1} px from the truth", report.file);
+        }
+        if board_found && truth.visible_dot().is_some() {
+            eligible += 1;
+            right += usize::from(report.status == PhotoStatus::Used);
+        }
+        eprintln!(
+            "{}: {} (board found {board_found}, visible {})",
+            report.file,
+            report.status_text(),
+            truth.visible_dot().is_some()
+        );
+    }
+    eprintln!("right dot used in {right} of {eligible} photos with a board and a visible dot");
+    assert!(eligible >= 4, "only {eligible} photos with a board and a visible dot: the set tests nothing");
+    assert!(right as f64 >= MIN_RIGHT_SHARE * eligible as f64, "right dot in {right} of {eligible}");
+}
