@@ -84,8 +84,8 @@ fn summary(r: &DriftCheck) -> String {
     let width = r.photos.iter().map(|p| name_of(&p.file).len()).max().unwrap_or(4).max(4);
     let mut s = format!("fslcal check: {} photos\n\n", r.photos.len());
     s += &format!(
-        "  {:width$}  {:>19}  {:>7}  {:>9}  {:>8}  {}\n",
-        "file", "dot px", "dist m", "offset px", "sigma px", "status"
+        "  {:width$}  {:>19}  {:>7}  {:>9}  {:>8}  {:>5}  {}\n",
+        "file", "dot px", "dist m", "offset px", "sigma px", "conf", "status"
     );
     for p in &r.photos {
         let dot = p.dot_px.map_or("-".into(), |d| format!("({:.1}, {:.1})", d[0], d[1]));
@@ -96,18 +96,23 @@ fn summary(r: &DriftCheck) -> String {
             CheckOutcome::Within => "ok".to_string(),
         };
         s += &format!(
-            "  {:width$}  {dot:>19}  {:>7}  {:>9}  {:>8}  {status}\n",
+            "  {:width$}  {dot:>19}  {:>7}  {:>9}  {:>8}  {:>5}  {status}\n",
             name_of(&p.file),
             f(p.distance_m, 3),
             f(p.offset_px, 2),
-            f(p.explained_sigma_px, 2)
+            f(p.explained_sigma_px, 2),
+            f(p.confidence, 2)
         );
     }
-    let with_dot = r.photos.iter().filter(|p| p.explained_sigma_px.is_some()).count();
     let flagged = r.photos.iter().filter(|p| p.flag).count();
-    s += &format!("\nflagged (offset over {FLAG_SIGMAS} sigma): {flagged} of {with_dot} photos with a dot\n");
+    s += &format!(
+        "\njudged from {} sure dots of {} photos; flagged (offset over {FLAG_SIGMAS} sigma): {flagged} of {}\n",
+        r.sure_dots,
+        r.photos.len(),
+        r.sure_dots
+    );
     if let Some(d) = r.implied_direction_change_deg {
-        s += &format!("implied change of the laser's direction: {d:.3} deg (median)\n");
+        s += &format!("implied change of the laser's direction: {d:.3} deg (median of the sure dots)\n");
     }
     s += if r.drifted { "\nverdict: DRIFTED\n" } else { "\nverdict: no drift seen\n" };
     s

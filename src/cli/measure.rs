@@ -172,9 +172,14 @@ fn search_dot(cal: &Calibration, photo: &Path) -> Result<Vec2, Withheld> {
     let decoded = crate::vision::EncodedPhoto::read(photo)
         .and_then(|p| p.decode_full())
         .map_err(|e| no_dot(DotMissing::Unreadable { message: e.to_string() }))?;
-    find_dot_on_laser_line(&decoded.colour(), &cal.camera, &cal.laser, &LineSearch::default())
-        .map(|d| d.pixel)
-        .map_err(|e| no_dot(DotMissing::NotFound(e)))
+    find_dot_on_laser_line(
+        &decoded.colour(),
+        &cal.camera,
+        &cal.laser,
+        &LineSearch::with_covariance(cal.laser_covariance),
+    )
+    .map(|d| d.pixel)
+    .map_err(|e| no_dot(DotMissing::NotFound(e)))
 }
 
 #[cfg(not(feature = "vision"))]
