@@ -38,10 +38,9 @@ const SENSITIVE_BACKGROUND_PX: usize = 12;
 /// a dozen squares crowd a far dot out before the geometry ever sees it.
 const PIECE_CANDIDATES: usize = 256;
 
-/// Floor of a detected dot's centring sigma, pixels: JPEG blocks, blur and the round-dot
-/// model's own limits (a tilted surface makes an ellipse) keep real centres from being
-/// better than this, whatever the blob's signal-to-noise.
-pub const CENTRING_FLOOR_PX: f64 = 0.5;
+/// Floor of a detected dot's centring sigma, pixels: the core's, which the companion's live
+/// distance uses too.
+pub const CENTRING_FLOOR_PX: f64 = fslcal_core::DOT_CENTRING_FLOOR_PX;
 
 /// Largest beam radius at the laser's exit, metres (beams of 1.5-5 mm).
 const BEAM_RADIUS_M: f64 = 2.5e-3;
@@ -53,7 +52,8 @@ const HALO_PX: f64 = 8.0;
 /// Smallest beam radius at the laser's exit, metres; a dot's blob is at least half the
 /// disc this makes at its distance.
 const BEAM_MIN_RADIUS_M: f64 = 0.75e-3;
-/// Least signal-to-noise of an unclipped dot at 1 m, rising as `1/z` nearer: the dot's
+/// Least signal-to-noise of an unclipped dot at 1 m in a 4000 px wide photo (in proportion
+/// to the width in others), rising as `1/z` nearer: the dot's
 /// light falls with distance (spreading, and attenuation there and back), so a faint speck
 /// whose place implies a near dot is texture, not the dot. Far dots are judged by the
 /// detector's own floor.
@@ -270,7 +270,7 @@ pub fn judge_candidate(
     candidate: DotCandidate,
     sensitive: bool,
 ) -> Option<LineCandidate> {
-    let centring = detected_sigma_px(&candidate).max(CENTRING_FLOOR_PX * camera.width_px as f64 / 4000.0);
+    let centring = detected_sigma_px(&candidate).max(CENTRING_FLOOR_PX);
     let gate = laser.gate(camera, &search.laser_covariance, candidate.pixel, centring)?;
     let misfit = misfit(camera, &candidate, gate.depth_m);
     Some(LineCandidate { candidate, gate, misfit, sensitive })
@@ -280,6 +280,8 @@ pub fn judge_candidate(
 /// clipped core is bright enough for any distance and blooms without bound: only its
 /// smallest size is judged.
 fn misfit(camera: &CameraModel, c: &DotCandidate, z_m: f64) -> Option<Refusal> {
+    // A matched filter's SNR grows with the blob's linear size at a given level.
+    let scale = camera.width_px as f64 / 4000.0;
     let smallest = 0.5 * camera.fx_px * BEAM_MIN_RADIUS_M / z_m.max(0.05);
     if c.radius_px < smallest {
         Some(Refusal::TooSmall)
@@ -287,7 +289,7 @@ fn misfit(camera: &CameraModel, c: &DotCandidate, z_m: f64) -> Option<Refusal> {
         None
     } else if c.radius_px > largest_radius_px(camera, z_m) {
         Some(Refusal::TooLarge)
-    } else if c.snr < MIN_SNR_AT_1M / z_m.max(0.05) {
+    } else if c.snr < MIN_SNR_AT_1M * scale / z_m.max(0.05) {
         Some(Refusal::TooFaint)
     } else {
         None

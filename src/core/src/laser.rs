@@ -213,6 +213,12 @@ impl LaserLine {
     }
 }
 
+/// Least 1-sigma of a found dot's centre, pixels, at any image size: JPEG's 8 px blocks,
+/// blur and the round-dot model's own limits (a tilted surface makes an ellipse) keep real
+/// centres from being better than this, whatever the blob's signal-to-noise. The CLI's
+/// along-line search and the companion's live distance gate with it.
+pub const DOT_CENTRING_FLOOR_PX: f64 = 0.5;
+
 /// Chi-square (1 degree of freedom) beyond which a dot's offset from the calibrated line's
 /// image is not explained by the calibration's covariance and the dot's centring: the 99.9%
 /// point (3.29 sigma), so a calibrated laser's dots fail it once in a thousand.
