@@ -11,6 +11,7 @@
 //! Pure Rust on an image view: the vision module hands in the pixels.
 
 use super::centre::{refine_centre, weighted_centre};
+use super::colour::LaserColourModel;
 use fslcal_core::Vec2;
 
 /// An 8-bit level at or above which a channel is taken as clipped (JPEG rounding keeps
@@ -37,7 +38,7 @@ pub struct ColourView<'a> {
 
 impl ColourView<'_> {
     #[inline]
-    pub(super) fn rgb(&self, x: usize, y: usize) -> (i32, i32, i32) {
+    pub(crate) fn rgb(&self, x: usize, y: usize) -> (i32, i32, i32) {
         let i = y * self.stride + 3 * x;
         let (a, b, c) = (self.data[i] as i32, self.data[i + 1] as i32, self.data[i + 2] as i32);
         match self.order {
@@ -61,14 +62,27 @@ pub struct SearchRegion {
 pub struct DotCandidate {
     /// Sub-pixel centre (pixel-centre convention).
     pub pixel: Vec2,
-    /// Matched-filter signal-to-noise of the blob's green excess.
+    /// Matched-filter signal-to-noise of the blob's excess along the laser's colour.
     pub snr: f64,
-    /// Peak green excess over the local background, in 8-bit levels.
+    /// Peak excess along the laser's colour (white removed) over the local background, in
+    /// 8-bit levels, of the blob's unclipped pixels.
     pub peak_green: f64,
-    /// Equivalent radius of the blob in pixels.
+    /// Equivalent radius of the blob in pixels (its core and its halo above half the
+    /// detection threshold).
     pub radius_px: f64,
-    /// True when the blob has a saturated core inside its green halo (a near dot).
+    /// True when the blob has a clipped core (a near dot, or a glint).
     pub saturated_core: bool,
+    /// Pixels of the blob whose laser channel is clipped.
+    pub saturated_px: usize,
+    /// Contrast along the laser's colour over the local background, less the off-colour
+    /// part, in noise sigmas ([`LaserColourModel::score`]), scored on the blob's unclipped
+    /// pixels and, for a clipped core, its fringe.
+    pub colour_score: f64,
+    /// Angle between the blob's chroma and the laser's, radians.
+    pub colour_angle_rad: f64,
+    /// Mean excess (R, G, B) of the scored pixels over the local background, 8-bit levels:
+    /// what a calibration learns the laser's colour from.
+    pub excess_rgb: [f64; 3],
 }
 
 /// Tuning of the detector; the defaults suit 8-bit photos from 640 px to 4000 px wide.
@@ -84,6 +98,12 @@ pub struct DotDetectorParams {
     pub max_area_px: usize,
     /// Half-size of the background window, px.
     pub background_radius_px: usize,
+    /// The laser's colour: the map the detector thresholds and the candidates' colour
+    /// score. The green prior until a calibration has learned the unit's own.
+    pub colour: LaserColourModel,
+    /// Candidates whose colour score ([`DotCandidate::colour_score`]) is below this many
+    /// sigmas are not returned: a white glint's fringe or an off-colour pigment.
+    pub min_colour_sigmas: f64,
 }
 
 impl Default for DotDetectorParams {
@@ -94,6 +114,8 @@ impl Default for DotDetectorParams {
             min_snr: 8.0,
             max_area_px: 20_000,
             background_radius_px: 40,
+            colour: LaserColourModel::green_prior(),
+            min_colour_sigmas: 4.0,
         }
     }
 }
@@ -103,7 +125,13 @@ impl DotDetectorParams {
     /// small region, or a narrow band around the laser's image): far, faint dots in murky
     /// water fall below the first search's threshold.
     pub fn sensitive(&self) -> DotDetectorParams {
-        DotDetectorParams { threshold_sigma: 3.5, min_excess_levels: 5.0, min_snr: 5.0, ..self.clone() }
+        DotDetectorParams {
+            threshold_sigma: 3.5,
+            min_excess_levels: 5.0,
+            min_snr: 5.0,
+            min_colour_sigmas: 4.0,
+            ..self.clone()
+        }
     }
 }
 
@@ -218,25 +246,28 @@ fn region_of_interest(img: &ColourView, polygon: &[Vec2]) -> Option<Roi> {
 /// The detector's per-pixel maps over the ROI, row-major `w * h`.
 pub(super) struct RoiMaps {
     pub(super) roi: Roi,
-    /// Green excess over the local background, 8-bit levels.
+    /// Contrast along the laser's colour over the local background, 8-bit levels.
     pub(super) excess: Vec<f32>,
-    /// The green channel is clipped.
+    /// The laser's strongest channel is clipped.
     pub(super) saturated: Vec<bool>,
     /// Blob id of each pixel, 0 for none yet.
     pub(super) label: Vec<u32>,
     /// Robust noise sigma of `excess`, 8-bit levels.
-    sigma: f64,
+    pub(super) sigma: f64,
     /// Green excess that seeds a blob, 8-bit levels.
     pub(super) threshold: f32,
+    /// The map's weights (R, G, B): the laser's colour matched against the ROI's own.
+    pub(super) weights: [f64; 3],
 }
 
 impl RoiMaps {
     fn new(img: &ColourView, roi: Roi, params: &DotDetectorParams) -> RoiMaps {
-        let (g, saturated) = green_excess(img, roi);
+        let weights = params.colour.matched_weights(scene_samples(img, roi), SCENE_NOISE_LEVELS);
+        let (g, saturated) = laser_contrast(img, roi, &params.colour, weights);
         let excess = minus_local_background(&g, roi, params.background_radius_px);
         let sigma = robust_noise(&excess);
         let threshold = (params.threshold_sigma * sigma).max(params.min_excess_levels) as f32;
-        RoiMaps { roi, excess, saturated, label: vec![0u32; roi.w * roi.h], sigma, threshold }
+        RoiMaps { roi, excess, saturated, label: vec![0u32; roi.w * roi.h], sigma, threshold, weights }
     }
 
     /// Labels the blob grown from `start` as `id`: 8-connected pixels whose excess is above
@@ -272,18 +303,33 @@ impl RoiMaps {
     }
 }
 
-/// Green excess `G - max(R, B)` over the ROI, and where green is clipped.
-fn green_excess(img: &ColourView, roi: Roi) -> (Vec<i32>, Vec<bool>) {
+/// Noise per channel the scene-adapted map keeps as its floor, 8-bit levels: a scene with
+/// little colour variation is weighted along the laser's colour itself.
+const SCENE_NOISE_LEVELS: f64 = 3.0;
+
+/// Every 7th pixel of the ROI, unclipped, as (R, G, B): the scene's colour variation.
+fn scene_samples<'a>(img: &'a ColourView<'a>, roi: Roi) -> impl Iterator<Item = [f64; 3]> + 'a {
+    (0..roi.w * roi.h).step_by(7).filter_map(move |i| {
+        let (r, g, b) = img.rgb(roi.x0 + i % roi.w, roi.y0 + i / roi.w);
+        (r.max(g).max(b) < CLIPPED).then_some([r as f64, g as f64, b as f64])
+    })
+}
+
+/// The laser's contrast over the ROI: each pixel projected on the laser's colour with white
+/// removed ([`LaserColourModel::weights`]), and where the laser's strongest channel clips.
+fn laser_contrast(img: &ColourView, roi: Roi, colour: &LaserColourModel, weights: [f64; 3]) -> (Vec<f32>, Vec<bool>) {
     let (w, h) = (roi.w, roi.h);
-    let mut g = vec![0i32; w * h];
+    let [wr, wg, wb] = weights.map(|v| v as f32);
+    let strongest = (0..3).max_by(|&a, &b| colour.rgb[a].total_cmp(&colour.rgb[b])).unwrap_or(1);
+    let mut g = vec![0f32; w * h];
     let mut saturated = vec![false; w * h];
     for y in 0..h {
         for x in 0..w {
             let (r, gg, b) = img.rgb(roi.x0 + x, roi.y0 + y);
-            g[y * w + x] = gg - r.max(b);
-            // The laser's green clips first; a clipped green channel shows no green excess
-            // however bright the dot is, so it counts as core.
-            saturated[y * w + x] = gg >= CLIPPED;
+            g[y * w + x] = wr * r as f32 + wg * gg as f32 + wb * b as f32;
+            // A clipped laser channel shows no contrast however bright the dot is, so it
+            // counts as core.
+            saturated[y * w + x] = [r, gg, b][strongest] >= CLIPPED;
         }
     }
     (g, saturated)
@@ -291,13 +337,13 @@ fn green_excess(img: &ColourView, roi: Roi) -> (Vec<i32>, Vec<bool>) {
 
 /// `g` less its local background, the box mean within `radius` px by an integral image. The
 /// window is much larger than a dot, so a dot barely lifts its own background.
-fn minus_local_background(g: &[i32], roi: Roi, radius: usize) -> Vec<f32> {
+fn minus_local_background(g: &[f32], roi: Roi, radius: usize) -> Vec<f32> {
     let (w, h) = (roi.w, roi.h);
-    let mut integral = vec![0i64; (w + 1) * (h + 1)];
+    let mut integral = vec![0f64; (w + 1) * (h + 1)];
     for y in 0..h {
-        let mut row = 0i64;
+        let mut row = 0f64;
         for x in 0..w {
-            row += g[y * w + x] as i64;
+            row += g[y * w + x] as f64;
             integral[(y + 1) * (w + 1) + x + 1] = integral[y * (w + 1) + x + 1] + row;
         }
     }
@@ -311,8 +357,8 @@ fn minus_local_background(g: &[i32], roi: Roi, radius: usize) -> Vec<f32> {
             let xb = (x + r + 1).min(w);
             let sum = integral[yb * (w + 1) + xb] - integral[ya * (w + 1) + xb] - integral[yb * (w + 1) + xa]
                 + integral[ya * (w + 1) + xa];
-            let n = ((yb - ya) * (xb - xa)) as f32;
-            excess[y * w + x] = g[y * w + x] as f32 - sum as f32 / n;
+            let n = ((yb - ya) * (xb - xa)) as f64;
+            excess[y * w + x] = g[y * w + x] - (sum / n) as f32;
         }
     }
     excess
@@ -339,7 +385,7 @@ pub(super) type BlobBox = (usize, usize, usize, usize);
 
 /// What a blob that looks like a dot measures.
 struct BlobMeasures {
-    /// Peak green excess of its unsaturated pixels, 8-bit levels.
+    /// Peak contrast of its unclipped pixels (the threshold if it has none), 8-bit levels.
     peak: f64,
     /// Matched-filter SNR.
     snr: f64,
@@ -348,7 +394,7 @@ struct BlobMeasures {
 }
 
 /// The dot candidate a labelled blob makes, or `None` when it is no dot (too small or too
-/// large, a white glint, a streak, outside the band, too faint).
+/// large, a streak, outside the band, too faint, not the laser's colour).
 fn blob_candidate(
     img: &ColourView,
     region: &SearchRegion,
@@ -375,32 +421,91 @@ fn blob_candidate(
     if m.snr < params.min_snr {
         return None;
     }
+    let colour = blob_colour(img, maps, id, rough, radius_px, m.saturated_pixels > 0)?;
+    let score = params.colour.score_with(maps.weights, colour.excess_rgb, colour.pixels, maps.sigma);
+    if score.sigmas < params.min_colour_sigmas {
+        return None;
+    }
     Some(DotCandidate {
         pixel: centre,
         snr: m.snr,
         peak_green: m.peak,
         radius_px,
         saturated_core: m.saturated_pixels > 0,
+        saturated_px: m.saturated_pixels,
+        colour_score: score.sigmas,
+        colour_angle_rad: score.angle_rad,
+        excess_rgb: colour.excess_rgb,
     })
 }
 
-/// A blob's peak, SNR and box; `None` for a white glint or an elongated blob.
+/// A blob's colour: the mean excess of its scored pixels over a ring of background.
+struct BlobColour {
+    excess_rgb: [f64; 3],
+    pixels: usize,
+}
+
+/// Measures blob `id`'s colour around `centre` (image pixels) against the mean of a ring
+/// well outside it. Scored pixels: the blob's own with no channel clipped and, around a
+/// clipped core, the unclipped fringe within three pixels of the blob (a near dot clips all
+/// of R, G and B; its colour survives only where the light falls off), else the disc one
+/// pixel beyond the blob's radius. `None` with fewer than
+/// 3 scored pixels or 12 background pixels.
+fn blob_colour(
+    img: &ColourView,
+    maps: &RoiMaps,
+    id: u32,
+    centre: Vec2,
+    radius_px: f64,
+    clipped_core: bool,
+) -> Option<BlobColour> {
+    // The whole disc, not only the pixels the threshold picked: a speck of noise picked
+    // for being bright along the laser's colour would otherwise score as that colour.
+    let fringe = if clipped_core { radius_px + 3.0 } else { radius_px + 1.0 };
+    let ring = (radius_px * 1.5 + 4.0, radius_px * 1.5 + 8.0);
+    let roi = maps.roi;
+    let lx = (centre.x - roi.x0 as f64 - ring.1).floor().max(0.0) as usize;
+    let hx = ((centre.x - roi.x0 as f64 + ring.1).ceil().max(0.0) as usize).min(roi.w - 1);
+    let ly = (centre.y - roi.y0 as f64 - ring.1).floor().max(0.0) as usize;
+    let hy = ((centre.y - roi.y0 as f64 + ring.1).ceil().max(0.0) as usize).min(roi.h - 1);
+    let (mut sig, mut n_sig, mut bg, mut n_bg) = ([0f64; 3], 0usize, [0f64; 3], 0usize);
+    for y in ly..=hy {
+        for x in lx..=hx {
+            let (r, g, b) = img.rgb(roi.x0 + x, roi.y0 + y);
+            if r.max(g).max(b) >= CLIPPED {
+                continue;
+            }
+            let px = [r as f64, g as f64, b as f64];
+            let d = ((roi.x0 + x) as f64 - centre.x).hypot((roi.y0 + y) as f64 - centre.y);
+            let label = maps.label[y * roi.w + x];
+            if label == id || (label == 0 && d <= fringe) {
+                sig = [sig[0] + px[0], sig[1] + px[1], sig[2] + px[2]];
+                n_sig += 1;
+            } else if label != id && d >= ring.0 && d <= ring.1 {
+                bg = [bg[0] + px[0], bg[1] + px[1], bg[2] + px[2]];
+                n_bg += 1;
+            }
+        }
+    }
+    if n_sig < 3 || n_bg < 12 {
+        return None;
+    }
+    let (ns, nb) = (n_sig as f64, n_bg as f64);
+    let excess_rgb = [sig[0] / ns - bg[0] / nb, sig[1] / ns - bg[1] / nb, sig[2] / ns - bg[2] / nb];
+    Some(BlobColour { excess_rgb, pixels: n_sig })
+}
+
+/// A blob's peak, SNR and box; `None` for an elongated blob.
 fn measure_blob(maps: &RoiMaps, pixels: &[usize]) -> Option<BlobMeasures> {
     let saturated = &maps.saturated;
     let sat_count = pixels.iter().filter(|&&i| saturated[i]).count();
     let green: Vec<f32> = pixels.iter().filter(|&&i| !saturated[i]).map(|&i| maps.excess[i].max(0.0)).collect();
-    if green.is_empty() {
-        return None;
-    }
-    let peak = green.iter().copied().fold(0f32, f32::max) as f64;
+    // A core clipped throughout shows no contrast of its own: count it at the threshold, and
+    // let its fringe's colour decide (in `blob_colour`).
+    let peak = green.iter().copied().fold(maps.threshold, f32::max) as f64;
     let mass: f64 = green.iter().map(|&e| e as f64).sum();
-    // Matched-filter SNR of the green halo; the core counts as signal at the peak level.
+    // Matched-filter SNR of the halo; the core counts as signal at the peak level.
     let snr = (mass + sat_count as f64 * peak) / (maps.sigma * (pixels.len() as f64).sqrt());
-    // A white glint has saturated pixels and at most a thin green fringe: demand that the
-    // green part be substantial where a core exists.
-    if sat_count > 0 && green.len() < sat_count / 2 {
-        return None;
-    }
     // Elongated blobs are edges or streaks, not a dot.
     let w = maps.roi.w;
     let (mut mnx, mut mxx, mut mny, mut mxy) = (usize::MAX, 0, usize::MAX, 0);

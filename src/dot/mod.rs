@@ -3,6 +3,7 @@
 
 pub mod candidates;
 mod centre;
+pub mod colour;
 pub mod near_prediction;
 pub mod on_line;
 pub mod on_target;

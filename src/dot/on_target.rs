@@ -58,5 +58,15 @@ pub fn detected_sigma_px(c: &DotCandidate) -> f64 {
 
 /// A hand-given dot as a candidate: certain by fiat, with no blob measured.
 pub fn hand_candidate(px: Vec2) -> DotCandidate {
-    DotCandidate { pixel: px, snr: f64::INFINITY, peak_green: 0.0, radius_px: 0.0, saturated_core: false }
+    DotCandidate {
+        pixel: px,
+        snr: f64::INFINITY,
+        peak_green: 0.0,
+        radius_px: 0.0,
+        saturated_core: false,
+        saturated_px: 0,
+        colour_score: f64::INFINITY,
+        colour_angle_rad: 0.0,
+        excess_rgb: [0.0; 3],
+    }
 }

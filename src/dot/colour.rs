@@ -1,0 +1,320 @@
+//! The laser's colour as the camera sees it, and how strongly a blob shows it.
+//!
+//! A laser is monochromatic: whatever the water does to the light on its way, the camera's
+//! R : G : B response to the dot is fixed by the wavelength and the colour filters, so one
+//! unit's dots share one direction in RGB (less a white part where blooming and cross-talk
+//! clip toward white). Pigments (algae, tape, fins) and scene light are broadband; their
+//! colour lies elsewhere in the chroma plane. A candidate is scored by its excess over its
+//! local background *along the laser's colour with white removed*, in noise sigmas, less
+//! the part of its excess that points off that colour. A near dot clips every channel in its
+//! core; its unclipped fringe still carries the colour, so only unclipped pixels are scored.
+//!
+//! The model comes from a unit's calibration ([`LaserColour`] in the signed file), learned
+//! from the calibration's accepted dots; before a unit has one, a prior that covers green
+//! lasers from 515 to 560 nm.
+
+use fslcal_core::unit_file::LaserColour;
+
+/// Unit vector of equal R, G and B.
+const WHITE: [f64; 3] = [0.577_350_269_189_625_8; 3];
+
+/// The prior's direction: a green pointer's excess on a consumer camera, G dominant with R
+/// and B alike (a 515 nm laser leaks into B, a 560 nm one into R: the prior sits between),
+/// normalised in [`unit`].
+const PRIOR_RGB: [f64; 3] = [0.30, 0.90, 0.30];
+
+/// How far a true dot's chroma may lie from the prior's, 1 sigma: the off-colour tolerance
+/// is twice this, wide enough for 515 nm (bluish green) to 560 nm (yellow-green) lasers on
+/// different cameras.
+const PRIOR_SPREAD_RAD: f64 = 0.40;
+
+/// Narrowest spread a learned model is trusted to: JPEG chroma subsampling and noise blur a
+/// real dot's colour by this much even when every dot shares one laser.
+const MIN_SPREAD_RAD: f64 = 0.06;
+
+/// Where a colour model came from.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum ColourSource {
+    /// No calibration yet: the green-laser prior.
+    Prior,
+    /// Learned from this many accepted dots of the unit's calibration.
+    Learned { dots: u16 },
+}
+
+/// The laser's colour: the direction of its dots' excess over background in 8-bit RGB.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct LaserColourModel {
+    /// Unit (R, G, B) direction of a dot's excess over its background.
+    pub rgb: [f64; 3],
+    /// 1-sigma angle between one dot's chroma and `rgb`, radians.
+    pub spread_rad: f64,
+    pub source: ColourSource,
+    /// `rgb` less its white part, unit length: the per-pixel projection the detector maps.
+    along: [f64; 3],
+    /// Unit chroma direction perpendicular to `along` and to white: the off-colour axis.
+    across: [f64; 3],
+}
+
+impl Default for LaserColourModel {
+    fn default() -> Self {
+        LaserColourModel::green_prior()
+    }
+}
+
+/// How a blob's colour scores against the model.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ColourScore {
+    /// Contrast along the laser's colour less the off-colour part, in noise sigmas of the
+    /// mean over the scored pixels (a matched filter): a dot scores high, a white glint's
+    /// fringe or a broadband pigment near zero or below.
+    pub sigmas: f64,
+    /// Angle between the blob's chroma (its excess less white) and the laser's, radians;
+    /// `PI` when the blob has no chroma at all.
+    pub angle_rad: f64,
+}
+
+impl LaserColourModel {
+    /// The prior for a green laser (515-560 nm) before the unit's colour is known.
+    pub fn green_prior() -> LaserColourModel {
+        LaserColourModel::new(PRIOR_RGB, PRIOR_SPREAD_RAD, ColourSource::Prior)
+    }
+
+    /// The colour a calibration learned; `None` when the stored direction carries no chroma
+    /// (white or zero), which no laser dot has.
+    pub fn from_unit(c: &LaserColour) -> Option<LaserColourModel> {
+        let rgb = [c.rgb[0] as f64, c.rgb[1] as f64, c.rgb[2] as f64];
+        let spread = (c.spread_rad as f64).max(MIN_SPREAD_RAD);
+        let m = LaserColourModel::new(rgb, spread, ColourSource::Learned { dots: c.dots });
+        m.along.iter().all(|v| v.is_finite()).then_some(m)
+    }
+
+    /// The model from a unit's colour, or the prior when it has none or an unusable one.
+    pub fn from_unit_or_prior(c: Option<&LaserColour>) -> LaserColourModel {
+        c.and_then(LaserColourModel::from_unit).unwrap_or_else(LaserColourModel::green_prior)
+    }
+
+    /// The colour as the signed unit file keeps it.
+    pub fn to_unit(&self) -> LaserColour {
+        let dots = match self.source {
+            ColourSource::Prior => 0,
+            ColourSource::Learned { dots } => dots,
+        };
+        LaserColour {
+            rgb: [self.rgb[0] as f32, self.rgb[1] as f32, self.rgb[2] as f32],
+            spread_rad: self.spread_rad as f32,
+            dots,
+        }
+    }
+
+    fn new(rgb: [f64; 3], spread_rad: f64, source: ColourSource) -> LaserColourModel {
+        let rgb = unit(rgb);
+        // A direction this close to white has no chroma to score along: NaN, refused by
+        // the callers that take outside input.
+        let chroma = sub(rgb, scale(WHITE, dot(rgb, WHITE)));
+        let rgb = if dot(chroma, chroma) < 1e-4 { [f64::NAN; 3] } else { rgb };
+        let along = unit(sub(rgb, scale(WHITE, dot(rgb, WHITE))));
+        let across = unit(cross(WHITE, along));
+        LaserColourModel { rgb, spread_rad, source, along, across }
+    }
+
+    /// Per-pixel weights (R, G, B) of the detector's map: contrast along the laser's colour
+    /// with white removed, so a white glint or a brighter patch of grey adds nothing.
+    pub fn weights(&self) -> [f32; 3] {
+        [self.along[0] as f32, self.along[1] as f32, self.along[2] as f32]
+    }
+
+    /// Weights (R, G, B) of a matched filter for the laser's colour against a scene's own
+    /// colour variation: `samples` are the scene's pixels (8-bit R, G, B), `noise_levels` the
+    /// camera's noise per channel. Under water every surface's brightness changes along the
+    /// water's cast (a white square in cyan water is "greener" than a black one by tens of
+    /// levels); weighting the laser's chroma by the inverse of the scene's chroma covariance
+    /// keeps the contrast that only the laser makes. Scaled so that an excess along the
+    /// laser's colour keeps its contrast ([`Self::contrast`]); white weighs nothing.
+    pub fn matched_weights(&self, samples: impl Iterator<Item = [f64; 3]>, noise_levels: f64) -> [f64; 3] {
+        let (mut n, mut sa, mut so, mut soo, mut sao) = (0f64, 0f64, 0f64, 0f64, 0f64);
+        for p in samples {
+            let (a, o) = (dot(p, self.along), dot(p, self.across));
+            n += 1.0;
+            sa += a;
+            so += o;
+            soo += o * o;
+            sao += a * o;
+        }
+        if n < 2.0 {
+            return self.along;
+        }
+        let noise = noise_levels * noise_levels;
+        let (ma, mo) = (sa / n, so / n);
+        let coo = soo / n - mo * mo + noise;
+        let cao = sao / n - ma * mo;
+        // C^-1 (1, 0), up to the determinant's positive factor, then gain 1 along the laser.
+        let (wa, wo) = (coo, -cao);
+        if wa <= 1e-12 {
+            return self.along;
+        }
+        add(self.along, scale(self.across, wo / wa))
+    }
+
+    /// Scores the mean excess `mean_excess` (R, G, B levels) of `pixels` unclipped pixels
+    /// under a map of `weights` ([`Self::matched_weights`]) whose noise is `sigma_levels`
+    /// per pixel: the map's contrast less the off-colour part beyond the model's spread
+    /// (twice over, so that a blob of a clearly other hue scores below zero however bright).
+    pub fn score_with(
+        &self,
+        weights: [f64; 3],
+        mean_excess: [f64; 3],
+        pixels: usize,
+        sigma_levels: f64,
+    ) -> ColourScore {
+        let a = dot(mean_excess, self.along);
+        let o = dot(mean_excess, self.across).abs();
+        let tolerated = (2.0 * self.spread_rad).tan() * a.max(0.0);
+        let off = (o - tolerated).max(0.0);
+        let sigmas = (dot(mean_excess, weights) - 2.0 * off) * (pixels as f64).sqrt() / sigma_levels.max(1e-6);
+        ColourScore { sigmas, angle_rad: self.angle_rad(mean_excess) }
+    }
+
+    /// Contrast of an excess (R, G, B over background, 8-bit levels) along the laser's
+    /// colour, levels.
+    pub fn contrast(&self, excess: [f64; 3]) -> f64 {
+        dot(excess, self.along)
+    }
+
+    /// Angle between an excess's chroma and the laser's, radians (`PI` without chroma).
+    pub fn angle_rad(&self, excess: [f64; 3]) -> f64 {
+        let a = dot(excess, self.along);
+        let o = dot(excess, self.across);
+        if a.hypot(o) < 1e-9 {
+            return core::f64::consts::PI;
+        }
+        o.abs().atan2(a)
+    }
+
+    /// Scores the mean excess `mean_excess` (R, G, B levels) of `pixels` unclipped pixels
+    /// whose map noise is `sigma_levels` per pixel. The off-colour part beyond the model's
+    /// spread counts against the contrast, so a yellow pigment as bright as a dot scores
+    /// below it.
+    pub fn score(&self, mean_excess: [f64; 3], pixels: usize, sigma_levels: f64) -> ColourScore {
+        self.score_with(self.along, mean_excess, pixels, sigma_levels)
+    }
+
+    /// The colour learned from accepted dots' mean excesses (R, G, B levels, unclipped
+    /// pixels): their chroma directions averaged (each dot one vote, so near bright dots do
+    /// not outweigh far ones) with the spread of their angles. `None` below 3 dots, or when
+    /// the dots' chroma disagree by more than the prior allows (they cannot be one laser).
+    pub fn learn(excesses: &[[f64; 3]]) -> Option<LaserColourModel> {
+        let dirs: Vec<[f64; 3]> = excesses
+            .iter()
+            .filter(|e| dot(**e, **e) > 1e-9)
+            .map(|&e| unit(sub(e, scale(WHITE, dot(e, WHITE)))))
+            .filter(|d| d.iter().all(|v| v.is_finite()))
+            .collect();
+        if dirs.len() < 3 {
+            return None;
+        }
+        let mean_dir = unit(dirs.iter().fold([0.0; 3], |acc, d| add(acc, *d)));
+        // The stored direction keeps the dots' mean white part, as the file describes the
+        // excess itself, not its chroma alone.
+        let mean_excess = unit(excesses.iter().fold([0.0; 3], |acc, e| add(acc, unit(*e))));
+        let white = dot(mean_excess, WHITE).max(0.0);
+        let rgb = unit(add(scale(mean_dir, (1.0 - white * white).max(0.0).sqrt()), scale(WHITE, white)));
+        let angles: Vec<f64> = dirs.iter().map(|d| dot(*d, mean_dir).clamp(-1.0, 1.0).acos()).collect();
+        let spread = (angles.iter().map(|a| a * a).sum::<f64>() / angles.len() as f64).sqrt();
+        if spread > 2.0 * PRIOR_SPREAD_RAD || !rgb.iter().all(|v| v.is_finite()) {
+            return None;
+        }
+        let dots = dirs.len().min(u16::MAX as usize) as u16;
+        Some(LaserColourModel::new(rgb, spread.max(MIN_SPREAD_RAD), ColourSource::Learned { dots }))
+    }
+}
+
+fn dot(a: [f64; 3], b: [f64; 3]) -> f64 {
+    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
+}
+
+fn add(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
+    [a[0] + b[0], a[1] + b[1], a[2] + b[2]]
+}
+
+fn sub(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
+    [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
+}
+
+fn scale(a: [f64; 3], s: f64) -> [f64; 3] {
+    [a[0] * s, a[1] * s, a[2] * s]
+}
+
+fn cross(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
+    [a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]]
+}
+
+fn unit(a: [f64; 3]) -> [f64; 3] {
+    scale(a, 1.0 / dot(a, a).sqrt())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn white_and_grey_score_nothing_and_the_laser_scores_its_contrast() {
+        let m = LaserColourModel::green_prior();
+        let w = m.weights();
+        assert!((w[0] + w[1] + w[2]).abs() < 1e-6, "white must project to zero: {w:?}");
+        // A glint's fringe: 60 levels of white.
+        let glint = m.score([60.0, 60.0, 60.0], 25, 2.0);
+        assert!(glint.sigmas.abs() < 1e-6, "{glint:?}");
+        // A dot of the prior's own colour, 40 levels along it, over 25 pixels at sigma 2.
+        let e = scale(m.rgb, 40.0);
+        let s = m.score(e, 25, 2.0);
+        assert!(s.angle_rad < 1e-9);
+        assert!((s.sigmas - m.contrast(e) * 5.0 / 2.0).abs() < 1e-9);
+        assert!(s.sigmas > 30.0, "{s:?}");
+    }
+
+    #[test]
+    fn an_off_colour_pigment_scores_below_a_dot_of_equal_brightness() {
+        let m = LaserColourModel::green_prior();
+        let dot_excess = scale(m.rgb, 50.0);
+        // Yellow tape under water: red and green alike, blue absorbed.
+        let tape = scale(unit([0.7, 0.7, 0.1]), 50.0);
+        let (d, t) = (m.score(dot_excess, 20, 2.0), m.score(tape, 20, 2.0));
+        assert!(t.angle_rad > 0.5, "{t:?}");
+        assert!(t.sigmas < 0.5 * d.sigmas, "tape {t:?} dot {d:?}");
+    }
+
+    #[test]
+    fn learns_one_lasers_colour_and_round_trips_through_the_unit_file() {
+        // A yellow-green laser: its dots' excesses, far (pure chroma) and near (whitened by
+        // blooming), with a little noise.
+        let laser = unit([0.55, 0.82, 0.12]);
+        let excesses: Vec<[f64; 3]> = (0..8)
+            .map(|i| {
+                let k = 20.0 + 15.0 * i as f64;
+                let white = 3.0 * i as f64;
+                let wobble = if i % 2 == 0 { 1.5 } else { -1.5 };
+                add(add(scale(laser, k), [white, white, white]), [wobble, 0.0, -wobble])
+            })
+            .collect();
+        let m = LaserColourModel::learn(&excesses).expect("eight consistent dots");
+        assert_eq!(m.source, ColourSource::Learned { dots: 8 });
+        assert!(m.angle_rad(scale(laser, 10.0)) < 0.05, "{m:?}");
+        assert!(m.spread_rad < 0.1, "{m:?}");
+        let back = LaserColourModel::from_unit(&m.to_unit()).unwrap();
+        assert!(back.angle_rad(scale(laser, 10.0)) < 0.05);
+        // Under the learned model the prior's bluish green is off colour; under the prior it
+        // is not: learning narrows what passes for a dot.
+        let bluish = scale(unit([0.15, 0.9, 0.4]), 40.0);
+        assert!(m.score(bluish, 20, 2.0).sigmas < LaserColourModel::green_prior().score(bluish, 20, 2.0).sigmas);
+    }
+
+    #[test]
+    fn refuses_to_learn_from_dots_of_no_common_colour() {
+        let e = [[50.0, 10.0, 10.0], [10.0, 50.0, 10.0], [10.0, 10.0, 50.0], [40.0, 40.0, 5.0]];
+        assert!(LaserColourModel::learn(&e).is_none());
+        assert!(LaserColourModel::learn(&e[..2]).is_none());
+        let white = LaserColour { rgb: [0.577, 0.577, 0.577], spread_rad: 0.1, dots: 5 };
+        assert!(LaserColourModel::from_unit(&white).is_none());
+        assert_eq!(LaserColourModel::from_unit_or_prior(Some(&white)).source, ColourSource::Prior);
+    }
+}
