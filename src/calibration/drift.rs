@@ -58,7 +58,7 @@ pub enum CheckError {
 
 /// Checks every photo against the calibration.
 pub fn check(cal: &Calibration, photos: &[PathBuf], progress: &(dyn Fn() + Sync)) -> Result<DriftCheck, CheckError> {
-    let search = LineSearch::with_covariance(cal.laser_covariance);
+    let search = cal.line_search();
     let found: Vec<(PhotoCheck, Vec<LineCandidate>)> = photos
         .par_iter()
         .map(|path| -> Result<(PhotoCheck, Vec<LineCandidate>), CheckError> {
@@ -157,7 +157,8 @@ fn believed_laser(cal: &Calibration, search: &LineSearch, found: &[(PhotoCheck, 
 /// the beam (the sign of [`fslcal_core::LineGate::implied_turn_rad`]).
 pub fn turned(laser: &LaserLine, turn_rad: f64) -> Option<LaserLine> {
     let n = laser.origin().cross(&laser.dir()).try_normalize(1e-12)?;
-    let axis = nalgebra::Unit::new_normalize(n.cross(&laser.dir()));
+    // Turning about d x n by a positive angle moves the direction toward +n.
+    let axis = nalgebra::Unit::new_normalize(laser.dir().cross(&n));
     let d = nalgebra::Rotation3::from_axis_angle(&axis, turn_rad) * laser.dir();
     LaserLine::from_point_direction(laser.origin(), d)
 }
@@ -222,4 +223,25 @@ fn decode(path: &Path, cal: &Calibration) -> Result<Result<Photo, CheckSkip>, Ch
         });
     }
     Ok(Ok(photo))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use calib_targets::rig::{fsl_laser, tg6_camera};
+
+    /// The turned laser the check believes and the gate's implied turn share one sign: a
+    /// dot of the laser turned by +0.4 deg implies +0.4 deg against the calibrated one.
+    #[test]
+    fn a_turned_laser_s_dots_imply_its_turn_with_its_sign() {
+        let (camera, laser) = (tg6_camera(), fsl_laser());
+        let cov = [[0.0; 4]; 4];
+        for deg in [0.4f64, -0.25] {
+            let t = turned(&laser, deg.to_radians()).unwrap();
+            for z in [0.8, 2.0, 4.0] {
+                let g = laser.gate(&camera, &cov, t.pixel_at_depth(&camera, z).unwrap(), 0.5).unwrap();
+                assert!((g.implied_turn_rad.to_degrees() - deg).abs() < 0.02 * deg.abs(), "{deg} deg at {z} m: {g:?}");
+            }
+        }
+    }
 }

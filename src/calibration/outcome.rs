@@ -155,6 +155,12 @@ pub struct CandidateCheck {
     pub pixel: [f64; 2],
     /// The detector's matched-filter signal-to-noise.
     pub snr: f64,
+    /// Its contrast along the laser's colour over its background, noise sigmas, and the
+    /// angle between its colour and the laser's, degrees.
+    #[serde(default)]
+    pub colour_sigmas: f64,
+    #[serde(default)]
+    pub colour_angle_deg: f64,
     /// Equivalent radius, pixels, and whether its core is clipped.
     pub radius_px: f64,
     pub saturated: bool,
@@ -175,6 +181,8 @@ impl CandidateCheck {
         CandidateCheck {
             pixel: [c.candidate.pixel.x, c.candidate.pixel.y],
             snr: c.candidate.snr,
+            colour_sigmas: c.candidate.colour_score,
+            colour_angle_deg: c.candidate.colour_angle_rad.to_degrees(),
             radius_px: c.candidate.radius_px,
             saturated: c.candidate.saturated_core,
             offset_px: c.gate.offset_px,

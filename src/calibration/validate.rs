@@ -212,7 +212,7 @@ fn measure_on_target(
 /// measured fails the run.
 fn choose_dot(job: &ValidationJob, t: &LocatedTarget) -> Result<(Vec2, DotFix), ValidationSkip> {
     let (camera, laser) = (&job.cal.camera, &job.cal.laser);
-    let search = LineSearch { detector: job.detector.clone(), ..LineSearch::with_covariance(job.cal.laser_covariance) };
+    let search = LineSearch { detector: job.detector.clone(), ..job.cal.line_search() };
     let plane = t.pose.plane();
     let all = line_candidates(&t.photo.colour(), camera, laser, &search).map_err(|_| ValidationSkip::NoDot)?;
     let on_target: Vec<LineCandidate> =

@@ -47,8 +47,11 @@ const BEAM_RADIUS_M: f64 = 2.5e-3;
 /// Largest half-angle divergence of the beam, radians (0.5-1.5 mrad full angle).
 const BEAM_HALF_DIVERGENCE_RAD: f64 = 0.75e-3;
 /// Blur, forward scatter and the detector's half-threshold halo around an unclipped dot,
-/// pixels at 4000 px wide.
-const HALO_PX: f64 = 8.0;
+/// pixels at 4000 px wide, and never less than [`HALO_FLOOR_PX`] (JPEG blocks and the
+/// detector's grain do not shrink with the photo). A board's light square between dark ones
+/// is a larger blob than any unclipped dot at its distance.
+const HALO_PX: f64 = 5.0;
+const HALO_FLOOR_PX: f64 = 2.5;
 /// Smallest beam radius at the laser's exit, metres; a dot's blob is at least half the
 /// disc this makes at its distance.
 const BEAM_MIN_RADIUS_M: f64 = 0.75e-3;
@@ -143,6 +146,8 @@ pub enum Refusal {
     TooSmall,
     /// Fainter than a dot that near.
     TooFaint,
+    /// Its place on the line implies a depth outside the searched range.
+    OutOfRange,
 }
 
 /// The dot found near the laser's image.
@@ -272,7 +277,13 @@ pub fn judge_candidate(
 ) -> Option<LineCandidate> {
     let centring = detected_sigma_px(&candidate).max(CENTRING_FLOOR_PX);
     let gate = laser.gate(camera, &search.laser_covariance, candidate.pixel, centring)?;
-    let misfit = misfit(camera, &candidate, gate.depth_m);
+    // The band reaches past the line's ends: a blob there implies a depth outside the search.
+    let (near, far) = search.depths_m;
+    let misfit = if gate.depth_m < near || gate.depth_m > far {
+        Some(Refusal::OutOfRange)
+    } else {
+        misfit(camera, &candidate, gate.depth_m)
+    };
     Some(LineCandidate { candidate, gate, misfit, sensitive })
 }
 
@@ -301,7 +312,8 @@ fn misfit(camera: &CameraModel, c: &DotCandidate, z_m: f64) -> Option<Refusal> {
 /// bound and is judged by its halo's colour instead.)
 pub fn largest_radius_px(camera: &CameraModel, z_m: f64) -> f64 {
     let scale = camera.width_px as f64 / 4000.0;
-    camera.fx_px * (BEAM_RADIUS_M + BEAM_HALF_DIVERGENCE_RAD * z_m) / z_m.max(0.05) + HALO_PX * scale
+    camera.fx_px * (BEAM_RADIUS_M + BEAM_HALF_DIVERGENCE_RAD * z_m) / z_m.max(0.05)
+        + (HALO_PX * scale).max(HALO_FLOOR_PX)
 }
 
 /// The dot among `candidates`: the plausible one carrying at least [`CLEAR_CONFIDENCE`] of
