@@ -33,8 +33,10 @@ pub use super::outcome::{CandidateCheck, CheckOutcome, CheckSkip, PhotoCheck};
 
 /// A sure dot is flagged when its offset exceeds this many sigmas of what is explained.
 pub const FLAG_SIGMAS: f64 = 5.0;
-/// Fewest photos whose candidates must agree on one turn of the beam before it is believed.
-pub const MIN_TURNED_PHOTOS: usize = 3;
+/// Fewest photos whose candidates must agree on one turn of the beam before it is believed
+/// (and they must outnumber the photos the calibrated laser explains): one off-line blob is
+/// a reflection or a glint, two at the same implied turn within 3.3 sigma are a moved laser.
+pub const MIN_TURNED_PHOTOS: usize = 2;
 /// A candidate agrees with a turn when its implied turn is within this many of its sigmas.
 const TURN_AGREEMENT_SIGMAS: f64 = 3.29;
 
@@ -110,13 +112,15 @@ pub fn check(cal: &Calibration, photos: &[PathBuf], progress: &(dyn Fn() + Sync)
 /// [`MIN_TURNED_PHOTOS`] photos and more than the calibrated laser does.
 fn believed_laser(cal: &Calibration, search: &LineSearch, found: &[(PhotoCheck, Vec<LineCandidate>)]) -> LaserLine {
     let calibrated = found.iter().filter(|(_, c)| choose(c, search.band_half_width_px).is_ok()).count();
-    // Each candidate's implied turn and its sigma (the gate's pixel sigma through the turn's
-    // pixel rate, f * along / depth).
+    // Each off-line candidate's implied turn and its sigma (the gate's pixel sigma through
+    // the turn's pixel rate, f * along / depth); blobs the calibrated laser explains, or
+    // whose size or signal rule them out, vote for no turn.
     let turns: Vec<Vec<(f64, f64)>> = found
         .iter()
         .map(|(_, cands)| {
             cands
                 .iter()
+                .filter(|c| c.misfit.is_none() && !c.gate.explained())
                 .map(|c| {
                     let rate_px = cal.camera.fx_px * c.gate.along_laser_m / c.gate.depth_m;
                     (c.gate.implied_turn_rad, c.gate.sigma_px / rate_px.max(1.0))
