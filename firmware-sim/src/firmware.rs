@@ -85,6 +85,10 @@ pub struct Fix {
     /// at the dot's depth. Near zero while the laser sits where it was calibrated.
     pub miss_m: f64,
     pub miss_px: f64,
+    /// The dot's offset from the calibrated line's image is explained by the calibration's
+    /// covariance and the dot's centring (`fslcal_core::LaserLine::gate`, the rule `fslcal
+    /// check` and `measure` use): only then is the distance shown.
+    pub explained: bool,
 }
 
 /// Depths searched for the beam's image when a dot gives no fix: the housing's front to
@@ -208,6 +212,10 @@ impl Firmware {
                 sigma_m: cal.laser.depth_sigma_at_pixel(&cal.camera, &cal.laser_covariance, px),
                 miss_m: f.miss_m,
                 miss_px: f.miss_m * cal.camera.fx_px / f.depth_m,
+                explained: cal
+                    .laser
+                    .gate(&cal.camera, &cal.laser_covariance, px, fslcal_core::DOT_CENTRING_FLOOR_PX)
+                    .is_some_and(|g| g.explained()),
             })
         } else {
             None

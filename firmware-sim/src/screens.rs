@@ -180,6 +180,11 @@ pub fn live_lines(fw: &Firmware, cal: &UnitCalibration) -> (Line, [Line; 3]) {
         };
         return (line("-.--- m"), [line(why), px, line("")]);
     };
+    if !f.explained {
+        // A dot the calibration cannot explain gives no distance: a reflection, a glint, or
+        // a moved laser (the drift monitor counts these).
+        return (line("-.--- m"), [line("off the line: no dist."), px, text!(24, "off line {:.1} px", f.miss_px)]);
+    }
     let sigma = match f.sigma_m {
         Some(s) => text!(24, "±{:.0} mm (1σ)", 1e3 * s),
         // Unknown (an imported calibration records no covariance), never ±0.

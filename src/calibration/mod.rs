@@ -42,7 +42,25 @@ pub struct Calibration {
     pub source: PathBuf,
 }
 
+/// How far outside the calibration's own depth range a dot is searched for, as factors on
+/// its near and far ends: a little beyond the calibrated span (the line extrapolates well),
+/// not down to the housing's front, where algae, fins and bubbles lie on the line's image and
+/// the calibration vouches for nothing (`measure` withholds such a length anyway).
+pub const SEARCH_BEYOND_RANGE: (f64, f64) = (0.85, 1.25);
+
 impl Calibration {
+    /// The along-line dot search for this calibration: its covariance, and depths from a
+    /// little inside the near end of its range to beyond its far end (the default depths
+    /// without a range).
+    pub fn line_search(&self) -> crate::dot::on_line::LineSearch {
+        use crate::dot::on_line::{LineSearch, DEFAULT_SEARCH_DEPTHS_M};
+        let (lo, hi) = DEFAULT_SEARCH_DEPTHS_M;
+        let depths_m = self.depth_range_m.map_or(DEFAULT_SEARCH_DEPTHS_M, |(near, far)| {
+            ((near * SEARCH_BEYOND_RANGE.0).clamp(lo, hi), (far * SEARCH_BEYOND_RANGE.1).clamp(lo, hi))
+        });
+        LineSearch { depths_m, ..LineSearch::with_covariance(self.laser_covariance) }
+    }
+
     /// 1-sigma distance error from the calibration alone for a dot at depth `z_m`.
     pub fn distance_sigma_m(&self, z_m: f64) -> Option<f64> {
         distance_sigma(&self.camera, &self.laser, &Matrix4::from(self.laser_covariance).transpose(), z_m)

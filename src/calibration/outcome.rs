@@ -5,7 +5,7 @@
 //! `documents::check`), so they build without the `vision` feature: the registry reads a
 //! validation report without OpenCV.
 
-use crate::dot::on_line::DotOnLineError;
+use crate::dot::on_line::{DotOnLineError, Refusal};
 use crate::laser::outcome::TargetMiss;
 use crate::reason::Reason;
 use fslcal_core::Vec2;
@@ -40,6 +40,8 @@ pub enum ValidationSkip {
     Target(TargetMiss),
     /// No dot-like blob on the target near the calibrated laser's image.
     NoDot,
+    /// Several blobs on the target could be the dot and none clearly is; their pixels.
+    Ambiguous { candidates_px: Vec<[f64; 2]> },
     /// The best blob's distance by the laser disagrees with the target's plane there,
     /// metres: not the dot, or a badly wrong calibration.
     NotTheDot { by_laser_m: f64, on_target_m: f64 },
@@ -54,6 +56,12 @@ impl fmt::Display for ValidationSkip {
         match self {
             ValidationSkip::Target(miss) => miss.fmt(f),
             ValidationSkip::NoDot => f.write_str("no laser dot found on the target near the calibrated laser's image"),
+            ValidationSkip::Ambiguous { candidates_px } => write!(
+                f,
+                "{} dot-like blobs on the target along the calibrated laser's image and none clearly the dot, at {}",
+                candidates_px.len(),
+                candidates_px.iter().map(|p| format!("({:.0}, {:.0})", p[0], p[1])).collect::<Vec<_>>().join(", ")
+            ),
             ValidationSkip::NotTheDot { by_laser_m, on_target_m } => write!(
                 f,
                 "the best dot-like blob gives {by_laser_m:.2} m by the laser but lies on the target at {on_target_m:.2} m: not the dot, or a badly wrong calibration"
@@ -146,6 +154,52 @@ pub enum CheckOutcome<'a> {
     Skipped(&'a Reason<CheckSkip>),
 }
 
+/// One dot-like blob in the band around the calibrated line's image, as the drift check
+/// judged it (`candidates` of a photo in `fslcal check --json`).
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct CandidateCheck {
+    /// Its centre, pixels.
+    pub pixel: [f64; 2],
+    /// The detector's matched-filter signal-to-noise.
+    pub snr: f64,
+    /// Its contrast along the laser's colour over its background, noise sigmas, and the
+    /// angle between its colour and the laser's, degrees.
+    #[serde(default)]
+    pub colour_sigmas: f64,
+    #[serde(default)]
+    pub colour_angle_deg: f64,
+    /// Equivalent radius, pixels, and whether its core is clipped.
+    pub radius_px: f64,
+    pub saturated: bool,
+    /// Signed offset across the calibrated line's image, pixels (positive: the side a beam
+    /// turned out of the camera-beam plane by a positive angle moves to).
+    pub offset_px: f64,
+    /// 1 sigma of that offset explained by the calibration and the centring, pixels.
+    pub sigma_px: f64,
+    /// Depth its place on the line implies, metres.
+    pub distance_m: f64,
+    /// Why it cannot be the dot under the laser the check believes; `None`: plausible.
+    pub refused: Option<Refusal>,
+}
+
+impl CandidateCheck {
+    /// A line candidate against the calibrated laser, refused or not under the believed one.
+    pub fn of(c: &crate::dot::on_line::LineCandidate, refused: Option<Refusal>) -> Self {
+        CandidateCheck {
+            pixel: [c.candidate.pixel.x, c.candidate.pixel.y],
+            snr: c.candidate.snr,
+            colour_sigmas: c.candidate.colour_score,
+            colour_angle_deg: c.candidate.colour_angle_rad.to_degrees(),
+            radius_px: c.candidate.radius_px,
+            saturated: c.candidate.saturated_core,
+            offset_px: c.gate.offset_px,
+            sigma_px: c.gate.sigma_px,
+            distance_m: c.gate.depth_m,
+            refused,
+        }
+    }
+}
+
 /// One photo's line of a drift check (`photos` in `fslcal check --json`).
 #[derive(Clone, Debug, Default, Serialize, Deserialize)]
 pub struct PhotoCheck {
@@ -162,6 +216,12 @@ pub struct PhotoCheck {
     /// median over the photos is the document's `implied_direction_change_deg`.
     #[serde(skip)]
     pub direction_change_deg: Option<f64>,
+    /// Share of the plausible candidates' likelihood the chosen dot carries (0-1).
+    #[serde(default)]
+    pub confidence: Option<f64>,
+    /// Every dot-like blob in the band, strongest first.
+    #[serde(default)]
+    pub candidates: Vec<CandidateCheck>,
     /// Why the photo could not be checked.
     pub reason: Option<Reason<CheckSkip>>,
 }
@@ -200,11 +260,13 @@ mod tests {
 
         let c = PhotoCheck {
             file: "b.jpg".into(),
-            reason: Some(CheckSkip::NoDot(DotOnLineError::Ambiguous { count: 11 }).into()),
+            reason: Some(
+                CheckSkip::NoDot(DotOnLineError::Ambiguous { candidates_px: vec![[10.0, 20.0], [30.4, 40.6]] }).into(),
+            ),
             ..PhotoCheck::default()
         };
         let v = serde_json::to_value(&c).unwrap();
-        assert_eq!(v["reason"], "11 faint dot-like blobs on the laser's image and no clear dot; give the dot by hand");
+        assert_eq!(v["reason"], "2 dot-like blobs on the calibrated laser's image and none clearly the dot, at (10, 20), (30, 41); give the dot by hand");
         assert!(v.get("direction_change_deg").is_none());
         let back: PhotoCheck = serde_json::from_value(v.clone()).unwrap();
         assert_eq!(serde_json::to_value(&back).unwrap(), v);

@@ -8,8 +8,8 @@
 //! length error against distance is fitted and a significant trend fails the run.
 
 use crate::calibration::Calibration;
-use crate::dot::candidates::{DotDetectorParams, SearchRegion};
-use crate::dot::on_line::{laser_image_polyline, DEFAULT_BAND_HALF_WIDTH_PX, DEFAULT_SEARCH_DEPTHS_M};
+use crate::dot::candidates::DotDetectorParams;
+use crate::dot::on_line::{choose, line_candidates, DotOnLineError, LineCandidate, LineSearch};
 use crate::laser::outcome::TargetMiss;
 use crate::laser::pipeline::LaserError;
 use crate::laser::target::{locate_target, LocatedTarget, Target};
@@ -137,13 +137,12 @@ pub fn validate(
 ) -> Result<Validation, ValidationError> {
     crate::vision::use_single_threaded_opencv();
     let length = known_length(job)?;
-    let line = laser_image_polyline(&job.cal.camera, &job.cal.laser, DEFAULT_SEARCH_DEPTHS_M);
     let results: Vec<PhotoValidation> = photos
         .par_iter()
         .map(|path| -> Result<PhotoValidation, ValidationError> {
             let located = locate_target(&job.target, &job.cal.camera, path);
             progress();
-            Ok(measure_photo(job, &length, &line, path, located?))
+            Ok(measure_photo(job, &length, path, located?))
         })
         .collect::<Result<_, _>>()?;
     judge(job, length, results)
@@ -153,7 +152,6 @@ pub fn validate(
 fn measure_photo(
     job: &ValidationJob,
     length: &KnownLength,
-    line: &[Vec2],
     path: &Path,
     located: Result<LocatedTarget, Reason<TargetMiss>>,
 ) -> PhotoValidation {
@@ -163,7 +161,7 @@ fn measure_photo(
         ..PhotoValidation::default()
     };
     let measured = match located {
-        Ok(t) => measure_on_target(job, length, line, &t, &mut out).map_err(Reason::from),
+        Ok(t) => measure_on_target(job, length, &t, &mut out).map_err(Reason::from),
         Err(miss) => Err(miss.map(ValidationSkip::Target)),
     };
     if let Err(why) = measured {
@@ -177,14 +175,13 @@ fn measure_photo(
 fn measure_on_target(
     job: &ValidationJob,
     length: &KnownLength,
-    line: &[Vec2],
     t: &LocatedTarget,
     out: &mut PhotoValidation,
 ) -> Result<(), ValidationSkip> {
     let camera = &job.cal.camera;
     out.target_inliers = t.inliers;
     out.target_outline_px = t.outline_px.clone();
-    let (dot_px, fix) = choose_dot(job, line, t)?;
+    let (dot_px, fix) = choose_dot(job, t)?;
     out.dot_px = Some([dot_px.x, dot_px.y]);
     out.distance_m = Some(fix.depth_m);
     let ends = [length.from_m, length.to_m].map(|p| camera.project(&t.pose.to_camera(&p)));
@@ -209,33 +206,56 @@ fn measure_on_target(
     Ok(())
 }
 
-/// The dot: on the target, near the calibrated laser's image (a band wide enough for a
-/// wrong calibration's dot, which is what this command must catch). Among several blobs,
-/// the dot is the one whose distance by the laser agrees best with where its ray meets the
-/// target's plane: a choice among candidates only; the scale still comes from the dot alone.
-fn choose_dot(job: &ValidationJob, line: &[Vec2], t: &LocatedTarget) -> Result<(Vec2, DotFix), ValidationSkip> {
+/// The dot: a candidate along the calibrated laser's image ([`line_candidates`]: offset
+/// explained by the covariance, size and signal fitting its distance) that lies on the
+/// target, and whose distance by the laser agrees with where its ray meets the target's
+/// plane: a choice among candidates only; the scale still comes from the dot alone. A
+/// calibration wrong out of the camera-beam plane leaves nothing on its line, and nothing
+/// measured fails the run.
+fn choose_dot(job: &ValidationJob, t: &LocatedTarget) -> Result<(Vec2, DotFix), ValidationSkip> {
     let (camera, laser) = (&job.cal.camera, &job.cal.laser);
-    let region =
-        SearchRegion { polygon: t.outline_px.clone(), band: Some((line.to_vec(), DEFAULT_BAND_HALF_WIDTH_PX)) };
+    let search = LineSearch { detector: job.detector.clone(), ..job.cal.line_search() };
     let plane = t.pose.plane();
-    let candidates = job.target.find_dots(&t.photo.colour(), &region, &job.detector, 8);
-    let chosen = candidates
-        .iter()
-        .filter_map(|c| {
-            let fix = laser.fix_from_pixel(camera, c.pixel)?;
-            let on_plane = crate::laser::fit::dot_point(camera, &plane, c.pixel)?;
-            Some((c.pixel, fix, (fix.depth_m / on_plane.z).ln().abs()))
-        })
-        .min_by(|a, b| a.2.total_cmp(&b.2));
-    let (dot_px, fix, disagreement) = chosen.ok_or(ValidationSkip::NoDot)?;
+    let all = line_candidates(&t.photo.colour(), camera, laser, &search).map_err(|_| ValidationSkip::NoDot)?;
+    let on_target: Vec<LineCandidate> =
+        all.into_iter().filter(|c| inside_convex(&t.outline_px, c.candidate.pixel)).collect();
+    // Distance by the laser against the target's plane at the blob, as a log ratio.
+    let disagreement = |c: &LineCandidate| {
+        crate::laser::fit::dot_point(camera, &plane, c.candidate.pixel)
+            .map_or(f64::INFINITY, |p| (c.gate.depth_m / p.z).ln().abs())
+    };
     // A blob whose laser distance is far from the target's is not the dot (a wrong laser
-    // direction of 0.5 deg moves the distance by under 20% at 2 m); a calibration that
-    // wrong everywhere leaves nothing measured, which fails too.
-    if disagreement > MAX_DISTANCE_DISAGREEMENT.ln_1p() {
-        let on_target_m = crate::laser::fit::dot_point(camera, &plane, dot_px).map_or(f64::NAN, |p| p.z);
-        return Err(ValidationSkip::NotTheDot { by_laser_m: fix.depth_m, on_target_m });
+    // direction of 0.5 deg moves the distance by under 20% at 2 m).
+    let (agree, disagree): (Vec<LineCandidate>, Vec<LineCandidate>) =
+        on_target.into_iter().partition(|c| disagreement(c) <= MAX_DISTANCE_DISAGREEMENT.ln_1p());
+    match choose(&agree, search.band_half_width_px) {
+        Ok(dot) => Ok((dot.pixel, laser.fix_from_pixel(camera, dot.pixel).ok_or(ValidationSkip::NoDot)?)),
+        Err(DotOnLineError::Ambiguous { candidates_px }) => Err(ValidationSkip::Ambiguous { candidates_px }),
+        Err(_) => {
+            match disagree.iter().filter(|c| c.plausible()).max_by(|a, b| a.candidate.snr.total_cmp(&b.candidate.snr)) {
+                Some(c) => Err(ValidationSkip::NotTheDot {
+                    by_laser_m: c.gate.depth_m,
+                    on_target_m: crate::laser::fit::dot_point(camera, &plane, c.candidate.pixel)
+                        .map_or(f64::NAN, |p| p.z),
+                }),
+                None => Err(ValidationSkip::NoDot),
+            }
+        }
     }
-    Ok((dot_px, fix))
+}
+
+/// `p` inside the convex polygon `poly` (either winding); an empty outline holds everything.
+fn inside_convex(poly: &[Vec2], p: Vec2) -> bool {
+    if poly.len() < 3 {
+        return true;
+    }
+    let sides = poly.iter().zip(poly.iter().cycle().skip(1)).map(|(a, b)| (b - a).perp(&(p - a)));
+    let (mut pos, mut neg) = (false, false);
+    for s in sides {
+        pos |= s > 0.0;
+        neg |= s < 0.0;
+    }
+    !(pos && neg)
 }
 
 /// The calibration's verdict from every photo's: each within the tolerance, and no real

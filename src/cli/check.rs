@@ -63,7 +63,7 @@ pub fn run(args: CheckArgs) -> anyhow::Result<ExitCode> {
         Err(e @ CheckError::NoDots { .. }) => {
             let message = e.to_string();
             let CheckError::NoDots { photos } = e else { unreachable!() };
-            (DriftCheck { photos, drifted: false, implied_direction_change_deg: None }, Some(message))
+            (DriftCheck { photos, drifted: false, sure_dots: 0, implied_direction_change_deg: None }, Some(message))
         }
         Err(e) => return Err(anyhow::Error::new(e).context("drift check")),
     };
@@ -103,8 +103,8 @@ fn summary(r: &DriftCheck, covariance_known: bool) -> String {
         s += "the calibration's covariance is unknown (an imported calibration records none): the flag threshold counts the dot's localisation only\n\n";
     }
     s += &format!(
-        "  {:width$}  {:>19}  {:>7}  {:>9}  {:>8}  {}\n",
-        "file", "dot px", "dist m", "offset px", "sigma px", "status"
+        "  {:width$}  {:>19}  {:>7}  {:>9}  {:>8}  {:>5}  {}\n",
+        "file", "dot px", "dist m", "offset px", "sigma px", "conf", "status"
     );
     for p in &r.photos {
         let dot = p.dot_px.map_or("-".into(), |d| format!("({:.1}, {:.1})", d[0], d[1]));
@@ -115,21 +115,26 @@ fn summary(r: &DriftCheck, covariance_known: bool) -> String {
             CheckOutcome::Within => "ok".to_string(),
         };
         s += &format!(
-            "  {:width$}  {dot:>19}  {:>7}  {:>9}  {:>8}  {status}\n",
+            "  {:width$}  {dot:>19}  {:>7}  {:>9}  {:>8}  {:>5}  {status}\n",
             name_of(&p.file),
             f(p.distance_m, 3),
             f(p.offset_px, 2),
-            f(p.explained_sigma_px, 2)
+            f(p.explained_sigma_px, 2),
+            f(p.confidence, 2)
         );
     }
-    let with_dot = r.photos.iter().filter(|p| p.explained_sigma_px.is_some()).count();
     let flagged = r.photos.iter().filter(|p| p.flag).count();
-    s += &format!("\nflagged (offset over {FLAG_SIGMAS} sigma): {flagged} of {with_dot} photos with a dot\n");
+    s += &format!(
+        "\njudged from {} sure dots of {} photos; flagged (offset over {FLAG_SIGMAS} sigma): {flagged} of {}\n",
+        r.sure_dots,
+        r.photos.len(),
+        r.sure_dots
+    );
     if let Some(d) = r.implied_direction_change_deg {
-        s += &format!("implied change of the laser's direction: {d:.3} deg (median)\n");
+        s += &format!("implied change of the laser's direction: {d:.3} deg (median of the sure dots)\n");
     }
-    s += match (with_dot, r.drifted) {
-        (0, _) => "\nverdict: NOT JUDGED (no photo with a dot the calibration can judge; reasons above)\n",
+    s += match (r.sure_dots, r.drifted) {
+        (0, _) => "\nverdict: NOT JUDGED (no photo with a dot the check is sure of; reasons above)\n",
         (_, true) => "\nverdict: DRIFTED\n",
         (_, false) => "\nverdict: no drift seen\n",
     };

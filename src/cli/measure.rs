@@ -199,12 +199,12 @@ fn mask_only(args: &MeasureArgs, mask: &Path) -> anyhow::Result<ExitCode> {
 /// target to narrow it down).
 #[cfg(feature = "vision")]
 fn search_dot(cal: &Calibration, photo: &Path) -> Result<Vec2, Withheld> {
-    use crate::dot::on_line::{find_dot_on_laser_line, LineSearch};
+    use crate::dot::on_line::find_dot_on_laser_line;
     let no_dot = |why: DotMissing| Withheld::NoDot { why: why.into() };
     let decoded = crate::vision::EncodedPhoto::read(photo)
         .and_then(|p| p.decode())
         .map_err(|e| no_dot(DotMissing::Unreadable { message: e.to_string() }))?;
-    find_dot_on_laser_line(&decoded.colour(), &cal.camera, &cal.laser, &LineSearch::default())
+    find_dot_on_laser_line(&decoded.colour(), &cal.camera, &cal.laser, &cal.line_search())
         .map(|d| d.pixel)
         .map_err(|e| no_dot(DotMissing::NotFound(e)))
 }

@@ -10,10 +10,12 @@ pub struct CheckDocument {
     #[serde(default = "schema_version_1")]
     pub schema_version: u32,
     pub photos: Vec<PhotoCheck>,
-    /// At least half the photos with a dot are flagged: the laser has moved.
+    /// At least half the sure dots are flagged: the laser has moved.
     pub drifted: bool,
-    /// Median over the photos with a dot of the implied change of the beam's direction,
-    /// degrees.
+    /// Photos with a dot the check is sure of; drift is judged from these only.
+    #[serde(default)]
+    pub sure_dots: usize,
+    /// Median over the sure dots of the implied change of the beam's direction, degrees.
     pub implied_direction_change_deg: Option<f64>,
 }
 
@@ -24,6 +26,7 @@ impl From<&crate::calibration::drift::DriftCheck> for CheckDocument {
             schema_version: super::SCHEMA_VERSION,
             photos: r.photos.clone(),
             drifted: r.drifted,
+            sure_dots: r.sure_dots,
             implied_direction_change_deg: r.implied_direction_change_deg,
         }
     }

@@ -1,34 +1,73 @@
 //! Finding the laser dot in a photo with no target in it (a fish, a drift-check photo): a
 //! rigid laser's dot can only be on the image of the calibrated laser line, so the search
 //! runs along that curve (projected with the camera model, distortion included) over the
-//! depths a dot can have, in a band wide enough to still find the dot of a laser that has
-//! moved a little (the drift check measures exactly that offset).
+//! depths a dot can have, in a band wide enough to still see the dot of a laser that has
+//! moved a little (the drift check judges exactly that offset, over many photos).
+//!
+//! Geometry chooses, not brightness: a candidate is the dot only when its offset from the
+//! line's image is explained by the calibration's covariance and its own centring
+//! ([`fslcal_core::LaserLine::gate`], the same rule the companion firmware uses) and its size
+//! agrees with the distance its place on the line implies. One such candidate clearly ahead
+//! of the others is the dot, with a confidence; several are withheld as ambiguous with
+//! their pixels listed; none is "no dot".
 //!
 //! The detector is [`crate::dot::candidates::find_dot_candidates`]; this module only decides where it
 //! looks and which candidate it believes.
 
 use crate::dot::candidates::{find_dot_candidates, ColourView, DotCandidate, DotDetectorParams, SearchRegion};
-use fslcal_core::{CameraModel, LaserLine, Vec2};
+use crate::dot::on_target::detected_sigma_px;
+use fslcal_core::{CameraModel, LaserLine, LineGate, Vec2};
 
 /// Depths searched when the caller has nothing better, metres: from the closest a fish is
 /// photographed to beyond where the dot is still visible in clear water.
 pub const DEFAULT_SEARCH_DEPTHS_M: (f64, f64) = (0.3, 6.0);
 
 /// Default half-width of the band around the laser's image, pixels. A laser knocked by 1
-/// degree moves its dot by about `f * 0.017` = 50 px on the TG-6; a wider band lets glints
-/// and green reflections compete with the dot.
+/// degree moves its dot by about `f * 0.017` = 50 px on the TG-6: candidates that far off
+/// are collected for the drift check's consensus over photos, never taken as a dot alone.
 pub const DEFAULT_BAND_HALF_WIDTH_PX: f64 = 80.0;
 
 /// Half-width of the band of the second, more sensitive search, pixels.
 const SENSITIVE_HALF_WIDTH_PX: f64 = 16.0;
+/// Half-size of the background window of the second search, pixels: several times a far
+/// dot's size, small enough to stay on the patch the dot lies on.
+const SENSITIVE_BACKGROUND_PX: usize = 12;
 
-/// An unclipped blob wider than this (equivalent radius, px) is scenery, not a dot.
-const MAX_UNCLIPPED_RADIUS_PX: f64 = 10.0;
-/// A candidate further than [`ON_LINE_PX`] from the laser's image needs this SNR: measured
-/// on the synthetic slate scenes, texture specks score 8-18 and dots off a knocked laser's
-/// line far more.
-const OFF_LINE_MIN_SNR: f64 = 20.0;
-const ON_LINE_PX: f64 = 10.0;
+/// Most candidates kept from one piece of the band. A board's white squares between black
+/// ones are strong blobs of green excess over their background: with a few kept per piece,
+/// a dozen squares crowd a far dot out before the geometry ever sees it.
+const PIECE_CANDIDATES: usize = 256;
+
+/// Floor of a detected dot's centring sigma, pixels: the core's, which the companion's live
+/// distance uses too.
+pub const CENTRING_FLOOR_PX: f64 = fslcal_core::DOT_CENTRING_FLOOR_PX;
+
+/// Largest beam radius at the laser's exit, metres (beams of 1.5-5 mm).
+const BEAM_RADIUS_M: f64 = 2.5e-3;
+/// Largest half-angle divergence of the beam, radians (0.5-1.5 mrad full angle).
+const BEAM_HALF_DIVERGENCE_RAD: f64 = 0.75e-3;
+/// Blur, forward scatter and the detector's half-threshold halo around an unclipped dot,
+/// pixels at 4000 px wide, and never less than [`HALO_FLOOR_PX`] (JPEG blocks and the
+/// detector's grain do not shrink with the photo). A board's light square between dark ones
+/// is a larger blob than any unclipped dot at its distance.
+const HALO_PX: f64 = 5.0;
+const HALO_FLOOR_PX: f64 = 2.5;
+/// Smallest beam radius at the laser's exit, metres; a dot's blob is at least half the
+/// disc this makes at its distance.
+const BEAM_MIN_RADIUS_M: f64 = 0.75e-3;
+/// Least signal-to-noise of an unclipped dot at 1 m in a 4000 px wide photo (in proportion
+/// to the width in others), rising as `1/z` nearer: the dot's
+/// light falls with distance (spreading, and attenuation there and back), so a faint speck
+/// whose place implies a near dot is texture, not the dot. Far dots are judged by the
+/// detector's own floor.
+const MIN_SNR_AT_1M: f64 = 20.0;
+
+/// Weight of a dot-like blob's signal in the choice between plausible candidates: a
+/// candidate's relative likelihood is `exp(-chi2 / 2) * snr^SNR_POWER`.
+const SNR_POWER: f64 = 2.0;
+/// A candidate is the dot when it carries at least this share of the plausible candidates'
+/// weight; below it the photo is ambiguous and withheld.
+pub const CLEAR_CONFIDENCE: f64 = 0.9;
 
 /// Where and how to search.
 #[derive(Clone, Debug)]
@@ -38,6 +77,9 @@ pub struct LineSearch {
     /// Half-width of the band around the laser's image, pixels.
     pub band_half_width_px: f64,
     pub detector: DotDetectorParams,
+    /// Covariance of the laser's [`LaserLine::to_params`], row-major: what explains a dot's
+    /// offset from the line besides its centring.
+    pub laser_covariance: [[f64; 4]; 4],
 }
 
 impl Default for LineSearch {
@@ -46,8 +88,66 @@ impl Default for LineSearch {
             depths_m: DEFAULT_SEARCH_DEPTHS_M,
             band_half_width_px: DEFAULT_BAND_HALF_WIDTH_PX,
             detector: DotDetectorParams::default(),
+            laser_covariance: [[0.0; 4]; 4],
         }
     }
+}
+
+impl LineSearch {
+    /// The default search for a calibration with this laser covariance.
+    pub fn with_covariance(laser_covariance: [[f64; 4]; 4]) -> Self {
+        LineSearch { laser_covariance, ..LineSearch::default() }
+    }
+}
+
+/// One dot-like blob in the band and what the calibrated line makes of it.
+#[derive(Clone, Debug, PartialEq)]
+pub struct LineCandidate {
+    pub candidate: DotCandidate,
+    /// Offset from the line's image against what is explained, and the implied distance.
+    pub gate: LineGate,
+    /// Its size and signal fit the distance its place on the line implies; `Some` refusal
+    /// when not.
+    pub misfit: Option<Refusal>,
+    /// Found by the second, more sensitive look.
+    pub sensitive: bool,
+}
+
+impl LineCandidate {
+    /// Could be the dot of the calibrated laser.
+    pub fn plausible(&self) -> bool {
+        self.gate.explained() && self.misfit.is_none()
+    }
+
+    /// Relative likelihood among the plausible candidates.
+    fn weight(&self) -> f64 {
+        (-0.5 * self.gate.chi2).exp() * self.candidate.snr.max(1.0).powf(SNR_POWER)
+    }
+
+    /// Why it cannot be the dot; `None` when plausible.
+    pub fn refusal(&self) -> Option<Refusal> {
+        if !self.gate.explained() {
+            Some(Refusal::OffLine)
+        } else {
+            self.misfit
+        }
+    }
+}
+
+/// Why a blob in the band cannot be the laser's dot.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum Refusal {
+    /// Its offset from the line's image is beyond what the covariance and centring explain.
+    OffLine,
+    /// Larger than any dot at the distance its place on the line implies.
+    TooLarge,
+    /// Smaller than the narrowest beam makes a dot at that distance.
+    TooSmall,
+    /// Fainter than a dot that near.
+    TooFaint,
+    /// Its place on the line implies a depth outside the searched range.
+    OutOfRange,
 }
 
 /// The dot found near the laser's image.
@@ -61,7 +161,11 @@ pub struct LineDot {
     pub offset_px: f64,
     /// The chosen candidate as the detector returned it.
     pub candidate: DotCandidate,
-    /// Other dot-like blobs in the band (reflections, glints with a green fringe).
+    /// The line's gate of the chosen candidate.
+    pub gate: LineGate,
+    /// Share of the plausible candidates' likelihood the chosen one carries (0-1).
+    pub confidence: f64,
+    /// Other dot-like blobs in the band, plausible or not.
     pub rivals: usize,
 }
 
@@ -69,10 +173,14 @@ pub struct LineDot {
 pub enum DotOnLineError {
     #[error("the calibrated laser's image does not cross this {width}x{height} photo between {near_m} and {far_m} m (wrong calibration for this camera?)")]
     LineOutsideImage { width: usize, height: usize, near_m: f64, far_m: f64 },
-    #[error("{count} faint dot-like blobs on the laser's image and no clear dot; give the dot by hand")]
-    Ambiguous { count: usize },
-    #[error("no laser dot within {half_width_px:.0} px of the calibrated laser's image (laser off, dot off the subject, or the laser has moved a lot: recalibrate)")]
+    #[error("{} dot-like blobs on the calibrated laser's image and none clearly the dot, at {}; give the dot by hand", candidates_px.len(), pixel_list(candidates_px))]
+    Ambiguous { candidates_px: Vec<[f64; 2]> },
+    #[error("no laser dot on the calibrated laser's image (laser off, dot off the subject, or the laser has moved: `fslcal check` on several photos tells)")]
     NoDot { half_width_px: f64 },
+}
+
+fn pixel_list(px: &[[f64; 2]]) -> String {
+    px.iter().map(|p| format!("({:.0}, {:.0})", p[0], p[1])).collect::<Vec<_>>().join(", ")
 }
 
 /// The laser's image as a polyline over `depths_m`, the points inside the image only.
@@ -87,15 +195,26 @@ pub fn laser_image_polyline(camera: &CameraModel, laser: &LaserLine, depths_m: (
 }
 
 /// Finds the laser dot in `img` (the full-resolution photo the `camera` describes) along the
-/// image of `laser`. The best candidate by signal-to-noise wins: inside a narrow band the
-/// dot is nearly always the strongest green blob, and the drift check needs the dot even
-/// when it is off the line, so distance to the line does not rank.
+/// image of `laser`: [`line_candidates`], then [`choose`].
 pub fn find_dot_on_laser_line(
     img: &ColourView,
     camera: &CameraModel,
     laser: &LaserLine,
     search: &LineSearch,
 ) -> Result<LineDot, DotOnLineError> {
+    let candidates = line_candidates(img, camera, laser, search)?;
+    choose(&candidates, search.band_half_width_px)
+}
+
+/// Every dot-like blob in the band around the laser's image, each with its gate, strongest
+/// first. A second, more sensitive look close to the line runs when the first finds nothing
+/// plausible: far dots in murky water are faint.
+pub fn line_candidates(
+    img: &ColourView,
+    camera: &CameraModel,
+    laser: &LaserLine,
+    search: &LineSearch,
+) -> Result<Vec<LineCandidate>, DotOnLineError> {
     let line = laser_image_polyline(camera, laser, search.depths_m);
     if line.len() < 2 {
         return Err(DotOnLineError::LineOutsideImage {
@@ -106,12 +225,34 @@ pub fn find_dot_on_laser_line(
         });
     }
     let hw = search.band_half_width_px;
-    // The detector's region of interest is the bounding box of its polygon; a diagonal line's
-    // box is mostly empty, so search in pieces about a band-width long, each a padded
-    // rectangle around its piece (the padding keeps the background window off the box's
-    // edge), and keep only centres inside the band.
     let pad = hw + search.detector.background_radius_px as f64;
-    let piece_px = (4.0 * hw).max(200.0);
+    let pieces = band_pieces(&line, (4.0 * hw).max(200.0));
+    let judge = |c: DotCandidate, sensitive: bool| judge_candidate(camera, laser, search, c, sensitive);
+    let mut found: Vec<LineCandidate> = search_pieces(img, &line, &pieces, hw, pad, &search.detector)
+        .into_iter()
+        .filter_map(|c| judge(c, false))
+        .collect();
+    if !found.iter().any(LineCandidate::plausible) {
+        // In small pieces with a small background window, so the noise is measured where
+        // the dot is: over a board's squares or a reef's texture a band-wide noise estimate
+        // buries a far dot on a dark patch.
+        let near = hw.min(SENSITIVE_HALF_WIDTH_PX);
+        let detector =
+            DotDetectorParams { background_radius_px: SENSITIVE_BACKGROUND_PX, ..search.detector.sensitive() };
+        let small = band_pieces(&line, 2.0 * near);
+        for c in search_pieces(img, &line, &small, near, near + SENSITIVE_BACKGROUND_PX as f64, &detector) {
+            if !found.iter().any(|f| (f.candidate.pixel - c.pixel).norm() < 2.0 * c.radius_px.max(2.0)) {
+                found.extend(judge(c, true));
+            }
+        }
+    }
+    found.sort_by(|a, b| b.candidate.snr.total_cmp(&a.candidate.snr));
+    Ok(found)
+}
+
+/// The line split into pieces about `piece_px` long: the detector's region of interest is
+/// the bounding box of its polygon, and a diagonal line's box is mostly empty.
+fn band_pieces(line: &[Vec2], piece_px: f64) -> Vec<Vec<Vec2>> {
     let mut pieces: Vec<Vec<Vec2>> = vec![vec![line[0]]];
     let mut run = 0.0;
     for w in line.windows(2) {
@@ -122,30 +263,82 @@ pub fn find_dot_on_laser_line(
             run = 0.0;
         }
     }
-    let mut found = search_pieces(img, &line, &pieces, hw, pad, &search.detector);
-    if found.is_empty() {
-        // Far dots in murky water are faint: a second, more sensitive look, only close to
-        // the line (in the whole band it finds noise). Near the noise floor a lone blob is
-        // believed, several are noise or texture and none of them is.
-        found = search_pieces(img, &line, &pieces, hw.min(SENSITIVE_HALF_WIDTH_PX), pad, &search.detector.sensitive());
-        if found.len() > 1 {
-            return Err(DotOnLineError::Ambiguous { count: found.len() });
-        }
-    }
-    // Scenery that passes for a dot: light patches between dark ones are large and never
-    // clipped (a near dot that large has a clipped core), and a dot off the line is a claim
-    // of drift that needs a strong blob, not a speck of texture.
-    found.retain(|c| c.saturated_core || c.radius_px <= MAX_UNCLIPPED_RADIUS_PX);
-    found.retain(|c| {
-        c.snr >= OFF_LINE_MIN_SNR || crate::dot::candidates::distance_to_polyline(&line, c.pixel) <= ON_LINE_PX
-    });
-    let Some(best) = found.first().cloned() else {
-        return Err(DotOnLineError::NoDot { half_width_px: hw });
+    pieces
+}
+
+/// A candidate's gate against `laser` and size test; `None` when its pixel gives no distance
+/// on the line. The drift check judges the same blobs again against a turned laser.
+pub fn judge_candidate(
+    camera: &CameraModel,
+    laser: &LaserLine,
+    search: &LineSearch,
+    candidate: DotCandidate,
+    sensitive: bool,
+) -> Option<LineCandidate> {
+    let centring = detected_sigma_px(&candidate).max(CENTRING_FLOOR_PX);
+    let gate = laser.gate(camera, &search.laser_covariance, candidate.pixel, centring)?;
+    // The band reaches past the line's ends: a blob there implies a depth outside the search.
+    let (near, far) = search.depths_m;
+    let misfit = if gate.depth_m < near || gate.depth_m > far {
+        Some(Refusal::OutOfRange)
+    } else {
+        misfit(camera, &candidate, gate.depth_m)
     };
-    let offset_px = laser
-        .pixel_offset(camera, best.pixel, search.depths_m.0 * 0.5, search.depths_m.1 * 2.0)
-        .unwrap_or_else(|| crate::dot::candidates::distance_to_polyline(&line, best.pixel));
-    Ok(LineDot { pixel: best.pixel, snr: best.snr, offset_px, rivals: found.len() - 1, candidate: best })
+    Some(LineCandidate { candidate, gate, misfit, sensitive })
+}
+
+/// Why a blob's size or signal cannot be a dot's at depth `z_m`; `None` when they can. A
+/// clipped core is bright enough for any distance and blooms without bound: only its
+/// smallest size is judged.
+fn misfit(camera: &CameraModel, c: &DotCandidate, z_m: f64) -> Option<Refusal> {
+    // A matched filter's SNR grows with the blob's linear size at a given level.
+    let scale = camera.width_px as f64 / 4000.0;
+    let smallest = 0.5 * camera.fx_px * BEAM_MIN_RADIUS_M / z_m.max(0.05);
+    if c.radius_px < smallest {
+        Some(Refusal::TooSmall)
+    } else if c.saturated_core {
+        None
+    } else if c.radius_px > largest_radius_px(camera, z_m) {
+        Some(Refusal::TooLarge)
+    } else if c.snr < MIN_SNR_AT_1M * scale / z_m.max(0.05) {
+        Some(Refusal::TooFaint)
+    } else {
+        None
+    }
+}
+
+/// Largest equivalent radius of an unclipped dot at depth `z_m`, pixels: the widest beam
+/// spread by the largest divergence, plus blur and halo. (A clipped core blooms without
+/// bound and is judged by its halo's colour instead.)
+pub fn largest_radius_px(camera: &CameraModel, z_m: f64) -> f64 {
+    let scale = camera.width_px as f64 / 4000.0;
+    camera.fx_px * (BEAM_RADIUS_M + BEAM_HALF_DIVERGENCE_RAD * z_m) / z_m.max(0.05)
+        + (HALO_PX * scale).max(HALO_FLOOR_PX)
+}
+
+/// The dot among `candidates`: the plausible one carrying at least [`CLEAR_CONFIDENCE`] of
+/// the plausible candidates' likelihood; several without a clear one are ambiguous, none is
+/// no dot.
+pub fn choose(candidates: &[LineCandidate], band_half_width_px: f64) -> Result<LineDot, DotOnLineError> {
+    let plausible: Vec<&LineCandidate> = candidates.iter().filter(|c| c.plausible()).collect();
+    let total: f64 = plausible.iter().map(|c| c.weight()).sum();
+    let Some(best) = plausible.iter().max_by(|a, b| a.weight().total_cmp(&b.weight())) else {
+        return Err(DotOnLineError::NoDot { half_width_px: band_half_width_px });
+    };
+    let confidence = best.weight() / total;
+    if confidence < CLEAR_CONFIDENCE {
+        let candidates_px = plausible.iter().map(|c| [c.candidate.pixel.x, c.candidate.pixel.y]).collect();
+        return Err(DotOnLineError::Ambiguous { candidates_px });
+    }
+    Ok(LineDot {
+        pixel: best.candidate.pixel,
+        snr: best.candidate.snr,
+        offset_px: best.gate.offset_px.abs(),
+        candidate: best.candidate.clone(),
+        gate: best.gate,
+        confidence,
+        rivals: candidates.len() - 1,
+    })
 }
 
 /// Candidates in every piece of the band, one per blob, best first.
@@ -167,7 +360,7 @@ fn search_pieces(
         let (s, t) = (along * pad, across * (pad + sag));
         let polygon = vec![a - s - t, b + s - t, b + s + t, a - s + t];
         let region = SearchRegion { polygon, band: Some((line.to_vec(), hw)) };
-        for c in find_dot_candidates(img, &region, params, 8) {
+        for c in find_dot_candidates(img, &region, params, PIECE_CANDIDATES) {
             // Neighbouring pieces overlap: one blob, one candidate.
             if !found.iter().any(|f| (f.pixel - c.pixel).norm() < 2.0 * f.radius_px.max(c.radius_px).max(2.0)) {
                 found.push(c);

@@ -224,6 +224,137 @@ pub fn covariance_known(covariance: &[[f64; 4]; 4]) -> bool {
     covariance.iter().flatten().any(|v| *v != 0.0)
 }
 
+/// Least 1-sigma of a found dot's centre, pixels, at any image size: JPEG's 8 px blocks,
+/// blur and the round-dot model's own limits (a tilted surface makes an ellipse) keep real
+/// centres from being better than this, whatever the blob's signal-to-noise. The CLI's
+/// along-line search and the companion's live distance gate with it.
+pub const DOT_CENTRING_FLOOR_PX: f64 = 0.5;
+
+/// Chi-square (1 degree of freedom) beyond which a dot's offset from the calibrated line's
+/// image is not explained by the calibration's covariance and the dot's centring: the 99.9%
+/// point (3.29 sigma), so a calibrated laser's dots fail it once in a thousand.
+pub const LINE_GATE_CHI2: f64 = 10.83;
+
+/// What the calibrated line says about a dot seen at one pixel: how far off the line's image
+/// it is, how far that is explained, and the distance it implies.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct LineGate {
+    /// Depth the dot implies by the thesis's closest-point rule, metres.
+    pub depth_m: f64,
+    /// Parameter along the beam from its origin at that point, metres.
+    pub along_laser_m: f64,
+    /// Offset from the line's image across it, pixels; positive toward the image of the
+    /// normal `origin x direction` of the plane holding the camera centre and the beam (the
+    /// only way a turned laser's dot can leave the line's image).
+    pub offset_px: f64,
+    /// 1-sigma of that offset from the calibration's covariance alone, pixels.
+    pub line_sigma_px: f64,
+    /// 1-sigma explained in all: the line's and the dot's centring, pixels.
+    pub sigma_px: f64,
+    /// `(offset / sigma)^2`.
+    pub chi2: f64,
+    /// Turn of the beam about its origin, out of the camera-beam plane, that would put the
+    /// dot here, radians (signed as `offset_px`).
+    pub implied_turn_rad: f64,
+}
+
+impl LineGate {
+    /// The offset is explained by the calibration ([`LINE_GATE_CHI2`]).
+    pub fn explained(&self) -> bool {
+        self.chi2 <= LINE_GATE_CHI2
+    }
+}
+
+impl LaserLine {
+    /// Unit normal of the plane through the camera centre and the beam; `None` when the beam
+    /// passes through the camera centre.
+    fn plane_normal(&self) -> Option<Vec3> {
+        self.origin().cross(&self.dir()).try_normalize(1e-12)
+    }
+
+    /// Unit normal of the line's image at depth `z_m`, oriented as the image of
+    /// [`LaserLine::plane_normal`], and the image point there.
+    fn image_normal(&self, camera: &CameraModel, z_m: f64) -> Option<(Vec2, Vec2)> {
+        let at = self.pixel_at_depth(camera, z_m)?;
+        let tangent = (self.pixel_at_depth(camera, z_m * 1.001)? - self.pixel_at_depth(camera, z_m * 0.999)?)
+            .try_normalize(1e-12)?;
+        let mut normal = Vec2::new(-tangent.y, tangent.x);
+        let n = self.plane_normal()?;
+        let pushed = camera.project(&(self.point_at_depth(z_m) + n * (1e-3 * z_m)))?;
+        if (pushed - at).dot(&normal) < 0.0 {
+            normal = -normal;
+        }
+        Some((normal, at))
+    }
+
+    /// 1-sigma of the line image's position across itself at depth `z_m`, pixels, from the
+    /// covariance of [`LaserLine::to_params`] (row-major), by first-order propagation.
+    pub fn image_sigma_px(&self, camera: &CameraModel, covariance: &[[f64; 4]; 4], z_m: f64) -> Option<f64> {
+        let (normal, _) = self.image_normal(camera, z_m)?;
+        let p = self.to_params();
+        let mut g = [0.0; 4];
+        for (k, gk) in g.iter_mut().enumerate() {
+            let h = 1e-7;
+            let (mut a, mut b) = (p, p);
+            a[k] += h;
+            b[k] -= h;
+            let pa = LaserLine::from_params(a).pixel_at_depth(camera, z_m)?;
+            let pb = LaserLine::from_params(b).pixel_at_depth(camera, z_m)?;
+            *gk = normal.dot(&(pa - pb)) / (2.0 * h);
+        }
+        let mut var = 0.0;
+        for (r, row) in covariance.iter().enumerate() {
+            for (c, cov) in row.iter().enumerate() {
+                var += g[r] * cov * g[c];
+            }
+        }
+        var.is_finite().then(|| libm::sqrt(var.max(0.0)))
+    }
+
+    /// The geometric gate of a dot candidate at `dot_px` whose centre is known to
+    /// `dot_sigma_px` (1 sigma per axis): its offset from the line's image against what the
+    /// calibration's `covariance` and the centring explain. `None` when the pixel gives no
+    /// fix (its ray runs parallel to the beam or meets it behind the camera).
+    pub fn gate(
+        &self,
+        camera: &CameraModel,
+        covariance: &[[f64; 4]; 4],
+        dot_px: Vec2,
+        dot_sigma_px: f64,
+    ) -> Option<LineGate> {
+        let fix = self.fix_from_pixel(camera, dot_px)?;
+        // The fix's depth is where the ray passes the beam; the image point nearest the pixel
+        // is a little along the curve from it: two secant steps along the tangent.
+        let mut z = fix.depth_m;
+        for _ in 0..2 {
+            let (normal, at) = self.image_normal(camera, z)?;
+            let tangent = Vec2::new(normal.y, -normal.x);
+            let step = self.pixel_at_depth(camera, z * 1.001)? - at;
+            let rate = step.dot(&tangent) / (z * 0.001);
+            let along = (dot_px - at).dot(&tangent);
+            if rate.abs() < 1e-9 || (along / rate).abs() > 0.5 * z {
+                break;
+            }
+            z += along / rate;
+        }
+        let (normal, at) = self.image_normal(camera, z)?;
+        let offset_px = (dot_px - at).dot(&normal);
+        let line_sigma_px = self.image_sigma_px(camera, covariance, z)?;
+        let sigma_px = libm::sqrt(line_sigma_px * line_sigma_px + dot_sigma_px * dot_sigma_px).max(1e-6);
+        let on_laser = self.origin() + self.dir() * fix.along_laser_m;
+        let signed_miss_m = (fix.point_m - on_laser).dot(&self.plane_normal()?);
+        Some(LineGate {
+            depth_m: fix.depth_m,
+            along_laser_m: fix.along_laser_m,
+            offset_px,
+            line_sigma_px,
+            sigma_px,
+            chi2: (offset_px / sigma_px) * (offset_px / sigma_px),
+            implied_turn_rad: libm::atan2(signed_miss_m, fix.along_laser_m.max(1e-9)),
+        })
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -309,5 +440,38 @@ mod tests {
         let off = on + Vec2::new(5.0, 0.0);
         let e = l.pixel_offset(&c, off, 0.3, 10.0).unwrap();
         assert!(e > 4.0 && e <= 5.0 + 1e-6, "{e}");
+    }
+
+    #[test]
+    fn the_gate_explains_a_dot_on_the_line_and_measures_a_turned_beam() {
+        let (c, l) = (cam(), laser());
+        let s = 1e-4;
+        let cov = [[1e-8, 0.0, 0.0, 0.0], [0.0, 1e-8, 0.0, 0.0], [0.0, 0.0, s * s, 0.0], [0.0, 0.0, 0.0, s * s]];
+        for &z in &[0.6, 2.0, 5.0] {
+            let px = l.pixel_at_depth(&c, z).unwrap();
+            let g = l.gate(&c, &cov, px, 0.5).unwrap();
+            assert!((g.depth_m - z).abs() < 1e-6 * z && g.offset_px.abs() < 1e-3, "{g:?}");
+            assert!(g.explained() && g.chi2 < 1e-5);
+            // Across the line: at most fx * slope sigma (0.29 px) and fx * origin sigma / z
+            // (0.48 px at 0.6 m) together, at least the slope's share across a steep line.
+            let most = (0.29f64.powi(2) + (0.29 / z).powi(2)).sqrt();
+            assert!(g.line_sigma_px > 0.2 && g.line_sigma_px <= most + 1e-3, "{g:?} vs {most}");
+        }
+        // The beam turned by 0.4 deg out of the camera-beam plane about its origin: every
+        // dot implies that turn and lies about fx * 0.4 deg = 20 px off the line's image,
+        // on one side.
+        let n = l.origin().cross(&l.dir()).normalize();
+        let axis = nalgebra::Unit::new_normalize(l.dir().cross(&n));
+        let turned = LaserLine::from_point_direction(
+            l.origin(),
+            nalgebra::Rotation3::from_axis_angle(&axis, 0.4f64.to_radians()) * l.dir(),
+        )
+        .unwrap();
+        for &z in &[0.6, 2.0, 5.0] {
+            let g = l.gate(&c, &cov, turned.pixel_at_depth(&c, z).unwrap(), 0.5).unwrap();
+            assert!((g.implied_turn_rad.to_degrees().abs() - 0.4).abs() < 0.02, "{g:?}");
+            assert!(g.offset_px.abs() > 17.0 && g.offset_px.abs() < 23.0 && !g.explained(), "{g:?}");
+            assert_eq!(g.offset_px.signum(), g.implied_turn_rad.signum());
+        }
     }
 }

@@ -22,7 +22,7 @@ pub mod laser;
 pub mod unit_file;
 
 pub use camera::{CameraModel, Distortion};
-pub use laser::{covariance_known, DotFix, LaserLine, Plane};
+pub use laser::{covariance_known, DotFix, LaserLine, LineGate, Plane, DOT_CENTRING_FLOOR_PX, LINE_GATE_CHI2};
 
 /// 3-vector in metres (or unitless for directions), camera frame unless named otherwise.
 pub type Vec3 = nalgebra::Vector3<f64>;
