@@ -36,11 +36,14 @@ impl<'a> Output<'a> {
     }
 
     /// A file that is a signed unit file when its name ends in `.fslcal`.
+    // Only the photo commands (behind `vision`) write results and reports.
+    #[cfg_attr(not(feature = "vision"), allow(dead_code))]
     pub fn result(option: &'static str, path: &'a Path) -> Self {
         let kind = if path.extension().is_some_and(|e| e == "fslcal") { OutputKind::Signed } else { OutputKind::File };
         Output { option, path, kind }
     }
 
+    #[cfg_attr(not(feature = "vision"), allow(dead_code))]
     pub fn report(option: &'static str, path: &'a Path) -> Self {
         Output { option, path, kind: OutputKind::ReportFolder }
     }

@@ -37,6 +37,7 @@ pub fn positive_px(s: &str) -> Result<f64, String> {
 }
 
 /// A tolerance in percent, above 0 and below 100 (`validate --tolerance`).
+#[cfg_attr(not(feature = "vision"), allow(dead_code))]
 pub fn percentage(s: &str) -> Result<f64, String> {
     let x = number(s, "percent")?;
     if !(x > 0.0 && x < 100.0) {
