@@ -746,6 +746,39 @@ pub(crate) fn search_pose(
     }
 }
 
+/// A board pose with the laser's dot on it at `depth_m` on a random square (about a third
+/// black), the whole board in the frame with a 30 px margin at 4000 px wide; face-on with
+/// the dot wherever the board's centre puts it as a last resort.
+pub(crate) fn board_pose(
+    rng: &mut SplitMix,
+    camera: &CameraModel,
+    laser: &LaserLine,
+    board: &Checkerboard,
+    depth_m: f64,
+) -> Pose {
+    let s = board.square_m;
+    let hit = laser.point_at_depth(depth_m);
+    let want_black = rng.unit() < 1.0 / 3.0;
+    let centre = Vec3::new(0.5 * (board.inner_cols - 1) as f64 * s, 0.5 * (board.inner_rows - 1) as f64 * s, 0.0);
+    let place = |rng: &mut SplitMix, _ease: f64, r: &nalgebra::Matrix3<f64>| {
+        let (i_sq, j_sq) = loop {
+            let i_sq = rng.below(board.inner_cols as u64 + 1) as i64;
+            let j_sq = rng.below(board.inner_rows as u64 + 1) as i64;
+            if Checkerboard::square_colour_is_black(i_sq, j_sq) == want_black {
+                break (i_sq, j_sq);
+            }
+        };
+        let on_board = Vec3::new(
+            (i_sq - 1) as f64 * s + rng.range(0.2, 0.8) * s,
+            (j_sq - 1) as f64 * s + rng.range(0.2, 0.8) * s,
+            0.0,
+        );
+        Some(hit - r * on_board)
+    };
+    let margin = 30.0 * camera.width_px as f64 / 4000.0;
+    search_pose(rng, camera, &board.outline_m(), margin, place, hit - centre)
+}
+
 /// A dive's laser calibration photos: the FishSense board from 0.6 to 4.5 m (evenly spread,
 /// jittered), tilted up to 35 degrees, turned up to 15 degrees in its plane, placed so that
 /// the TG-6 rig's laser dot lands on it at a random spot (about a third on black squares),
@@ -755,33 +788,12 @@ pub fn laser_scene_set(count: usize, seed: u64, water: Water, glints: u32) -> Ve
     let camera = crate::rig::tg6_camera();
     let laser = crate::rig::fsl_laser();
     let board = Checkerboard::fishsense();
-    let s = board.square_m;
     (0..count)
         .map(|i| {
             let mut rng = SplitMix::derive(seed, i as u64);
             let t = if count > 1 { i as f64 / (count - 1) as f64 } else { 0.25 };
             let depth = (0.6 + 3.9 * t + rng.range(-0.05, 0.05)).clamp(0.6, 4.5);
-            let hit = laser.point_at_depth(depth);
-            let want_black = rng.unit() < 1.0 / 3.0;
-            let centre =
-                Vec3::new(0.5 * (board.inner_cols - 1) as f64 * s, 0.5 * (board.inner_rows - 1) as f64 * s, 0.0);
-            let place = |rng: &mut SplitMix, _ease: f64, r: &nalgebra::Matrix3<f64>| {
-                let (i_sq, j_sq) = loop {
-                    let i_sq = rng.below(board.inner_cols as u64 + 1) as i64;
-                    let j_sq = rng.below(board.inner_rows as u64 + 1) as i64;
-                    if Checkerboard::square_colour_is_black(i_sq, j_sq) == want_black {
-                        break (i_sq, j_sq);
-                    }
-                };
-                let on_board = Vec3::new(
-                    (i_sq - 1) as f64 * s + rng.range(0.2, 0.8) * s,
-                    (j_sq - 1) as f64 * s + rng.range(0.2, 0.8) * s,
-                    0.0,
-                );
-                Some(hit - r * on_board)
-            };
-            // Last resort: face-on with the dot wherever the board's centre puts it.
-            let pose = search_pose(&mut rng, &camera, &board.outline_m(), 30.0, place, hit - centre);
+            let pose = board_pose(&mut rng, &camera, &laser, &board, depth);
             SceneSpec {
                 camera,
                 laser: Some(laser),

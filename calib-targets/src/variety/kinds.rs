@@ -8,9 +8,9 @@ use super::render::{dot_radiance, Body, Extras, Object, PhotoPlan};
 use super::unit::Unit;
 use crate::fish::{fish_in_frame, FishPose, FishShape};
 use crate::random::SplitMix;
-use crate::scene::{random_rotation, search_pose, to_rows, Pose, SlateTexture};
+use crate::scene::{board_pose, random_rotation, search_pose, to_rows, Pose, SlateTexture};
 use crate::Checkerboard;
-use fslcal_core::{CameraModel, LaserLine, Vec2, Vec3};
+use fslcal_core::{CameraModel, Vec2, Vec3};
 use std::sync::Arc;
 
 /// Distances of board photos, metres.
@@ -176,31 +176,6 @@ fn backdrop(plan: &mut PhotoPlan, depth_m: f64, rng: &mut SplitMix) {
             plan.objects.push(f);
         }
     }
-}
-
-/// A board pose with the laser's dot on it at `depth_m`, the whole board in the frame.
-fn board_pose(rng: &mut SplitMix, camera: &CameraModel, laser: &LaserLine, board: &Checkerboard, depth_m: f64) -> Pose {
-    let s = board.square_m;
-    let hit = laser.point_at_depth(depth_m);
-    let want_black = rng.unit() < 1.0 / 3.0;
-    let centre = Vec3::new(0.5 * (board.inner_cols - 1) as f64 * s, 0.5 * (board.inner_rows - 1) as f64 * s, 0.0);
-    let place = |rng: &mut SplitMix, _ease: f64, r: &nalgebra::Matrix3<f64>| {
-        let (i_sq, j_sq) = loop {
-            let i_sq = rng.below(board.inner_cols as u64 + 1) as i64;
-            let j_sq = rng.below(board.inner_rows as u64 + 1) as i64;
-            if Checkerboard::square_colour_is_black(i_sq, j_sq) == want_black {
-                break (i_sq, j_sq);
-            }
-        };
-        let on_board = Vec3::new(
-            (i_sq - 1) as f64 * s + rng.range(0.2, 0.8) * s,
-            (j_sq - 1) as f64 * s + rng.range(0.2, 0.8) * s,
-            0.0,
-        );
-        Some(hit - r * on_board)
-    };
-    let margin = 30.0 * camera.width_px as f64 / 4000.0;
-    search_pose(rng, camera, &board.outline_m(), margin, place, hit - centre)
 }
 
 /// One photo of a slate set: the set's slate from 0.5 to 2.5 m, tilted up to 35 degrees,
