@@ -81,6 +81,7 @@ mod tests {
             unit: None,
             focal_length_mm: None,
             camera_serial: None,
+            laser_colour: None,
             source: PathBuf::new(),
         }
     }

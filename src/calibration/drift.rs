@@ -275,6 +275,7 @@ mod tests {
             unit: None,
             camera_serial: None,
             focal_length_mm: None,
+            laser_colour: None,
             source: "test".into(),
         }
     }

@@ -17,7 +17,7 @@ pub mod validate;
 use crate::documents::laser::LaserDocument;
 use crate::documents::{check_schema, CameraJson, NewerSchema};
 use crate::laser::fit::distance_sigma;
-use fslcal_core::unit_file::{self, FormatError};
+use fslcal_core::unit_file::{self, FormatError, LaserColour};
 use fslcal_core::{CameraModel, LaserLine};
 use nalgebra::Matrix4;
 use std::path::{Path, PathBuf};
@@ -39,6 +39,9 @@ pub struct Calibration {
     /// Focal length the calibration photos were taken at (EXIF), millimetres: another
     /// means the zoom was used.
     pub focal_length_mm: Option<f64>,
+    /// The laser's colour learned from the calibration's accepted dots: the dot search
+    /// scores candidates along it rather than along the green prior.
+    pub laser_colour: Option<LaserColour>,
     pub source: PathBuf,
 }
 
@@ -58,7 +61,17 @@ impl Calibration {
         let depths_m = self.depth_range_m.map_or(DEFAULT_SEARCH_DEPTHS_M, |(near, far)| {
             ((near * SEARCH_BEYOND_RANGE.0).clamp(lo, hi), (far * SEARCH_BEYOND_RANGE.1).clamp(lo, hi))
         });
-        LineSearch { depths_m, ..LineSearch::with_covariance(self.laser_covariance) }
+        LineSearch { depths_m, detector: self.dot_detector(), ..LineSearch::with_covariance(self.laser_covariance) }
+    }
+
+    /// The dot detector for this unit: the default thresholds, scoring colour along the
+    /// laser's learned colour (the green prior for a calibration made before it was kept).
+    pub fn dot_detector(&self) -> crate::dot::candidates::DotDetectorParams {
+        use crate::dot::colour::LaserColourModel;
+        crate::dot::candidates::DotDetectorParams {
+            colour: LaserColourModel::from_unit_or_prior(self.laser_colour.as_ref()),
+            ..Default::default()
+        }
     }
 
     /// 1-sigma distance error from the calibration alone for a dot at depth `z_m`.
@@ -139,6 +152,7 @@ pub fn from_unit_file(file: &unit_file::SignedUnitFile<'_>, path: &Path) -> Cali
         camera_serial: c.camera_identity.serial.map(str::to_string),
         // The unit file does not record the zoom; only the JSON result carries it.
         focal_length_mm: None,
+        laser_colour: c.laser_colour,
         source: path.to_path_buf(),
     }
 }
@@ -170,6 +184,11 @@ fn parse_laser_json(bytes: &[u8], path: &Path) -> Result<Calibration, Calibratio
         unit: r.unit,
         camera_serial: r.camera_serial,
         focal_length_mm: r.focal_length_mm,
+        laser_colour: r.laser_colour.map(|c| LaserColour {
+            rgb: c.rgb.map(|v| v as f32),
+            spread_rad: c.spread_rad as f32,
+            dots: c.dots,
+        }),
         source: path.to_path_buf(),
     })
 }
@@ -177,6 +196,7 @@ fn parse_laser_json(bytes: &[u8], path: &Path) -> Result<Calibration, Calibratio
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::dot::colour::ColourSource;
     use fslcal_core::Distortion;
 
     fn example() -> serde_json::Value {
@@ -214,6 +234,22 @@ mod tests {
     }
 
     #[test]
+    fn searches_along_the_learned_laser_colour_and_the_prior_without_one() {
+        let plain = parse_laser_json(&serde_json::to_vec(&example()).unwrap(), Path::new("x.json")).unwrap();
+        assert_eq!(plain.dot_detector().colour.source, ColourSource::Prior);
+        let mut v = example();
+        // A yellow-green laser: its learned direction, not the prior's, is what is scored.
+        v["laser_colour"] = serde_json::json!({"rgb": [0.55, 0.82, 0.12], "spread_rad": 0.08, "dots": 11});
+        let cal = parse_laser_json(&serde_json::to_vec(&v).unwrap(), Path::new("x.json")).unwrap();
+        let colour = cal.line_search().detector.colour;
+        assert_eq!(colour.source, ColourSource::Learned { dots: 11 });
+        assert!((colour.rgb[0] - 0.55).abs() < 0.01 && (colour.rgb[2] - 0.12).abs() < 0.01, "{colour:?}");
+        // A pigment of the prior's bluish green passes the prior better than this laser's colour.
+        let bluish = [0.15 * 40.0, 0.9 * 40.0, 0.4 * 40.0];
+        assert!(colour.score(bluish, 20, 2.0).sigmas < plain.dot_detector().colour.score(bluish, 20, 2.0).sigmas);
+    }
+
+    #[test]
     fn reads_a_signed_unit_file_and_refuses_a_tampered_one() {
         let dir = tempfile::tempdir().unwrap();
         let mut buf = [0u8; unit_file::MAX_FILE_BYTES];
@@ -227,6 +263,8 @@ mod tests {
         assert_eq!(cal.laser.origin_m, [-0.0405, -0.1055, 0.0]);
         assert_eq!(cal.depth_range_m, Some((0.75, 4.5)));
         assert_eq!(cal.laser_covariance[1][0], 1.0e-9);
+        // The colour the calibration learned is what the along-line search scores.
+        assert_eq!(cal.line_search().detector.colour.source, ColourSource::Learned { dots: 14 });
         buf[60] ^= 0x01; // inside fx
         std::fs::write(&path, &buf[..n]).unwrap();
         let msg = load(&path).unwrap_err().to_string();

@@ -10,7 +10,6 @@ use crate::calibration::validate::{
 use crate::documents::refused::RefusedDocument;
 use crate::documents::validation::{CalibrationUsed, ValidationDocument};
 use crate::documents::{self};
-use crate::dot::candidates::DotDetectorParams;
 use crate::laser::target::TargetArg;
 use crate::photo::identity::ExpectedCamera;
 use crate::photo::thumbnails::Keeping;
@@ -84,12 +83,12 @@ pub fn run(args: ValidateArgs) -> anyhow::Result<ExitCode> {
     args.body.check(&ExpectedCamera::from(&cal), &args.photos)?;
     let target = args.target.load()?;
     let job = ValidationJob {
+        detector: cal.dot_detector(),
         cal,
         target,
         length_name: args.length.clone(),
         rule: args.rule,
         tolerance_pct: args.tolerance,
-        detector: DotDetectorParams::default(),
     };
     // The report's thumbnails come from each photo's one decode, kept while the run lasts.
     let _thumbnails = args.report.is_some().then(|| Keeping::start(report::THUMBNAIL_WIDTH_PX));

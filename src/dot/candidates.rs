@@ -70,6 +70,11 @@ pub struct DotCandidate {
     /// Equivalent radius of the blob in pixels (its core and its halo above half the
     /// detection threshold).
     pub radius_px: f64,
+    /// Equivalent radius of the blob's part at or above half its peak, clipped pixels
+    /// included: the dot's own size. A bright dot's blur and scatter reach the detection
+    /// threshold far out (its `radius_px` grows with its brightness); at half its peak it
+    /// is as wide as its beam.
+    pub core_radius_px: f64,
     /// True when the blob has a clipped core (a near dot, or a glint).
     pub saturated_core: bool,
     /// Pixels of the blob with a clipped channel.
@@ -392,6 +397,8 @@ struct BlobMeasures {
     peak: f64,
     /// Matched-filter SNR.
     snr: f64,
+    /// Pixels at or above half the peak, or clipped.
+    core_pixels: usize,
     saturated_pixels: usize,
     bbox: BlobBox,
 }
@@ -436,6 +443,7 @@ fn blob_candidate(
         snr: m.snr,
         peak_green: m.peak,
         radius_px,
+        core_radius_px: (m.core_pixels as f64 / core::f64::consts::PI).sqrt(),
         saturated_core: m.saturated_pixels > 0,
         saturated_px: m.saturated_pixels,
         colour_score: score.sigmas,
@@ -509,6 +517,7 @@ fn measure_blob(maps: &RoiMaps, pixels: &[usize]) -> Option<BlobMeasures> {
     // let its fringe's colour decide (in `blob_colour`).
     let peak = green.iter().copied().fold(maps.threshold, f32::max) as f64;
     let mass: f64 = green.iter().map(|&e| e as f64).sum();
+    let core_pixels = sat_count + green.iter().filter(|&&e| e as f64 >= 0.5 * peak).count();
     // Matched-filter SNR of the halo; the core counts as signal at the peak level.
     let snr = (mass + sat_count as f64 * peak) / (maps.sigma * (pixels.len() as f64).sqrt());
     // Elongated blobs are edges or streaks, not a dot.
@@ -525,7 +534,7 @@ fn measure_blob(maps: &RoiMaps, pixels: &[usize]) -> Option<BlobMeasures> {
     if bw.max(bh) / bw.min(bh) > 3.0 || (pixels.len() as f64) < 0.3 * bw * bh {
         return None;
     }
-    Some(BlobMeasures { peak, snr, saturated_pixels: sat_count, bbox: (mnx, mxx, mny, mxy) })
+    Some(BlobMeasures { peak, snr, core_pixels, saturated_pixels: sat_count, bbox: (mnx, mxx, mny, mxy) })
 }
 
 #[cfg(test)]

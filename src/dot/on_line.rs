@@ -140,7 +140,7 @@ impl LineCandidate {
 pub enum Refusal {
     /// Its offset from the line's image is beyond what the covariance and centring explain.
     OffLine,
-    /// Larger than any dot at the distance its place on the line implies.
+    /// Larger at half its peak than any dot at the distance its place on the line implies.
     TooLarge,
     /// Smaller than the narrowest beam makes a dot at that distance.
     TooSmall,
@@ -298,7 +298,7 @@ fn misfit(camera: &CameraModel, c: &DotCandidate, z_m: f64) -> Option<Refusal> {
         Some(Refusal::TooSmall)
     } else if c.saturated_core {
         None
-    } else if c.radius_px > largest_radius_px(camera, z_m) {
+    } else if c.core_radius_px > largest_radius_px(camera, z_m) {
         Some(Refusal::TooLarge)
     } else if c.snr < MIN_SNR_AT_1M * scale / z_m.max(0.05) {
         Some(Refusal::TooFaint)

@@ -63,6 +63,7 @@ pub fn hand_candidate(px: Vec2) -> DotCandidate {
         snr: f64::INFINITY,
         peak_green: 0.0,
         radius_px: 0.0,
+        core_radius_px: 0.0,
         saturated_core: false,
         saturated_px: 0,
         colour_score: f64::INFINITY,

@@ -178,6 +178,7 @@ mod tests {
             snr: score,
             peak_green: 20.0,
             radius_px: 3.0,
+            core_radius_px: 2.0,
             saturated_core: false,
             saturated_px: 0,
             colour_score: score,

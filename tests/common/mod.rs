@@ -184,6 +184,7 @@ pub fn tg6_calibration(laser: LaserLine, origin_var_m2: f64, slope_var: f64) -> 
         unit: None,
         camera_serial: None,
         focal_length_mm: None,
+        laser_colour: None,
         source: "test".into(),
     }
 }
