@@ -9,7 +9,10 @@
 //! - calibration and slate sets: `fslcal laser --json`, each photo's `dot_px` and `status`
 //!   (a wrong dot is either used in the fit or caught as an outlier);
 //! - target-less sets (fish, reef): `fslcal check --json --cal CAL` with the unit's true
-//!   calibration, and `fslcal measure --labels --json` (its `dot_px` per fish).
+//!   calibration, and `fslcal measure --labels --json` (its `dot_px` per fish). The
+//!   calibration is what `fslcal laser` made of the unit's companion calibration photos (10
+//!   of the board, `VarietySet::companion_calibration`), as a diver's would be: its fit and
+//!   the laser colour it learned; `--true-cal` uses the unit's true calibration instead.
 //!
 //! Options: `--first-seed S` (default 1000000, the first held-out seed; `--tuning` for 0),
 //! `--sets N` or `--sets calibration=N,slate=N,targetless=N` (default 2, 1, 2), `--size WxH`
@@ -38,6 +41,9 @@ struct Options {
     photos: Option<usize>,
     keep: Option<PathBuf>,
     csv: Option<PathBuf>,
+    /// Target-less sets are checked with the unit's true calibration (the green prior)
+    /// instead of one made from its companion calibration photos.
+    true_cal: bool,
 }
 
 fn parse_options() -> Result<Options, String> {
@@ -50,6 +56,7 @@ fn parse_options() -> Result<Options, String> {
         photos: None,
         keep: None,
         csv: None,
+        true_cal: false,
     };
     if !full {
         // `cargo test --benches`: one small target-less set, enough to run every step.
@@ -61,6 +68,10 @@ fn parse_options() -> Result<Options, String> {
     while let Some(flag) = it.next() {
         if flag == "--tuning" {
             o.first_seed = 0;
+            continue;
+        }
+        if flag == "--true-cal" {
+            o.true_cal = true;
             continue;
         }
         let value = it.next().ok_or_else(|| format!("{flag} needs a value"))?;
@@ -288,9 +299,45 @@ fn answer_from_laser(p: &Value) -> Answer {
     }
 }
 
+/// Photos of a target-less set's companion calibration (`VarietySet::companion_calibration`).
+const COMPANION_PHOTOS: usize = 10;
+
+/// The unit's calibration as a diver would have it: `fslcal laser --out` on the set's
+/// companion calibration photos (in `DIR/calibration`), with the laser colour it learned.
+/// Falls back to the unit's true calibration (`cal.json`, the green prior) when the fit is
+/// refused, and says so in the outcome.
+fn calibrate_unit(set: &VarietySet, dir: &Path) -> (PathBuf, String) {
+    let companion = set.companion_calibration(COMPANION_PHOTOS).expect("a valid photo count");
+    let cdir = dir.join("calibration");
+    let photos = match rendered_before(&cdir, &companion) {
+        Some(photos) => photos,
+        None => companion.write(&cdir, &mut |_| {}).expect("render the companion calibration"),
+    };
+    let fitted = cdir.join("fitted.json");
+    let _ = std::fs::remove_file(&fitted);
+    let camera = cdir.join("camera.yml").display().to_string();
+    let out = fslcal()
+        .args(["laser", "--camera", &camera, "--target", "checkerboard:14x10@42.17mm", "--json", "--out"])
+        .arg(&fitted)
+        .args(photo_args(&photos))
+        .output()
+        .expect("run laser");
+    let v: Value = serde_json::from_slice(&out.stdout).unwrap_or(Value::Null);
+    let used = v["photos"].as_array().map_or(0, |p| p.iter().filter(|p| p["status"] == "used").count());
+    if fitted.is_file() {
+        let colour = v["laser_colour"]["dots"]
+            .as_u64()
+            .map_or("no laser colour".to_string(), |n| format!("colour from {n} dots"));
+        (fitted, format!("check with its own calibration ({used} of {} photos, {colour})", photos.len()))
+    } else {
+        let why = String::from_utf8_lossy(&out.stderr).lines().last().unwrap_or("").to_string();
+        (dir.join("cal.json"), format!("companion calibration refused ({why}): check with the true one"))
+    }
+}
+
 /// `fslcal check --json --cal CAL`: every photo's dot, or none when no photo has one.
-fn run_check(dir: &Path, photos: &[PathBuf]) -> Vec<Answer> {
-    let cal = dir.join("cal.json").display().to_string();
+fn run_check(cal: &Path, photos: &[PathBuf]) -> Vec<Answer> {
+    let cal = cal.display().to_string();
     let out = fslcal().args(["check", "--json", "--cal", &cal]).args(photo_args(photos)).output().expect("run check");
     let Ok(v) = serde_json::from_slice::<Value>(&out.stdout) else {
         let why = String::from_utf8_lossy(&out.stderr).trim().to_string();
@@ -317,7 +364,7 @@ fn run_check(dir: &Path, photos: &[PathBuf]) -> Vec<Answer> {
 
 /// `fslcal measure --labels --json`: one labelled fish per photo (the truth's first fish in
 /// the frame, or a stand-in across the middle), its `dot_px`.
-fn run_measure(dir: &Path, photos: &[PathBuf], truths: &[PhotoTruth]) -> Vec<Answer> {
+fn run_measure(dir: &Path, cal: &Path, photos: &[PathBuf], truths: &[PhotoTruth]) -> Vec<Answer> {
     let mut csv = String::from("photo,head_x,head_y,tail_x,tail_y\n");
     for (p, t) in photos.iter().zip(truths) {
         let [w, h] = t.image_size.map(|v| v as f64);
@@ -330,7 +377,7 @@ fn run_measure(dir: &Path, photos: &[PathBuf], truths: &[PhotoTruth]) -> Vec<Ans
     }
     let labels = dir.join("labels.csv");
     std::fs::write(&labels, csv).expect("write labels");
-    let cal = dir.join("cal.json").display().to_string();
+    let cal = cal.display().to_string();
     let labels = labels.display().to_string();
     let out = fslcal()
         .args(["measure", "--json", "--cal", &cal, "--labels", &labels])
@@ -391,7 +438,11 @@ fn evaluate_set(kind: Kind, seed: u64, o: &Options, root: &Path, timing: &mut [f
             let (a, v) = run_laser(&dir, &target, &photos);
             (a, None, v)
         }
-        Kind::Targetless => (run_check(&dir, &photos), Some(run_measure(&dir, &photos, &truths)), String::new()),
+        Kind::Targetless => {
+            let (cal, outcome) =
+                if o.true_cal { (dir.join("cal.json"), String::new()) } else { calibrate_unit(&set, &dir) };
+            (run_check(&cal, &photos), Some(run_measure(&dir, &cal, &photos, &truths)), outcome)
+        }
     };
     timing[1] += t.elapsed().as_secs_f64();
     let mut measures = measures.map(|m| m.into_iter());

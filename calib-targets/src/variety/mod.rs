@@ -198,6 +198,19 @@ impl VarietySet {
         self.plans.is_empty()
     }
 
+    /// The calibration a diver would have made of this set's unit before taking its photos:
+    /// `count` checkerboard photos of the same camera and laser (new scenes, water and
+    /// looks), under the same seed. `check` and `measure` are then run with what `fslcal
+    /// laser` made of them (its fit and the laser colour it learned), not with the truth.
+    pub fn companion_calibration(&self, count: usize) -> Result<VarietySet, VarietyError> {
+        if !(2..=200).contains(&count) {
+            return Err(VarietyError::Count { count });
+        }
+        let key = SplitMix::derive(self.seed, Kind::Calibration.salt() ^ self.kind.salt() ^ 0xC0).next_u64();
+        let plans = (0..count).map(|i| kinds::calibration_photo(&self.unit, key, i, count)).collect();
+        Ok(VarietySet { kind: Kind::Calibration, seed: self.seed, unit: self.unit.clone(), slate: None, plans })
+    }
+
     /// Renders photo `index`.
     pub fn render(&self, index: usize) -> VarietyPhoto {
         let plan = &self.plans[index];

@@ -90,8 +90,18 @@ fn every_photo_draws_its_own_look_and_the_unit_stays() {
 
 #[test]
 fn calibration_photos_have_the_dot_on_the_board_with_every_corner_in_frame() {
-    for seed in [11, 12, 13] {
-        let set = VarietySet::plan(Kind::Calibration, seed, None, SMALL).unwrap();
+    // A target-less set's companion calibration too: the same unit, photographed on the board.
+    let target_less = VarietySet::plan(Kind::Targetless, 14, None, SMALL).unwrap();
+    let companion = target_less.companion_calibration(10).unwrap();
+    assert_eq!(companion.unit, target_less.unit);
+    assert_eq!((companion.kind, companion.len()), (Kind::Calibration, 10));
+    let own = VarietySet::plan(Kind::Calibration, 14, Some(10), SMALL).unwrap();
+    assert_ne!(companion.plan_digest(), own.plan_digest(), "the companion must not repeat set 14's scenes");
+    for (seed, set) in [11, 12, 13]
+        .map(|seed| (seed, VarietySet::plan(Kind::Calibration, seed, None, SMALL).unwrap()))
+        .into_iter()
+        .chain([(14, companion)])
+    {
         let (mut near, mut far) = (f64::MAX, 0.0f64);
         for (i, plan) in set.plans.iter().enumerate() {
             let Body::Board { board, .. } = &plan.objects[0].body else { panic!("seed {seed} photo {i}: no board") };
