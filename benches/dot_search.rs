@@ -7,9 +7,11 @@
 //! covers only the target's image, the target-less search a band along the laser), then
 //! searched again without the colour floor so that every blob is scored. Each blob is
 //! labelled by the truth: the dot (within 2 px), the impostor it lies on, or texture. Prints the median and worst search time and a
-//! histogram of colour scores per label. Asserts nothing about time.
+//! histogram of colour scores per label; then the time of the search `check` and `measure`
+//! run, along the set's calibrated line. Asserts nothing about time.
 
 use fslcal::dot::candidates::{find_dot_candidates, ChannelOrder, ColourView, DotDetectorParams, SearchRegion};
+use fslcal::dot::on_line::find_dot_on_laser_line;
 use serde_json::Value;
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
@@ -82,6 +84,7 @@ fn main() {
     }
     let params = DotDetectorParams { min_colour_sigmas: f64::NEG_INFINITY, ..DotDetectorParams::default() };
     let mut times_ms = Vec::new();
+    let mut line_ms = Vec::new();
     let mut hist: BTreeMap<String, [usize; EDGES.len() - 1]> = BTreeMap::new();
     for path in &list {
         let Ok(img) = image::open(path) else { continue };
@@ -96,6 +99,15 @@ fn main() {
         let t = Instant::now();
         let _ = find_dot_candidates(&view, &SearchRegion::default(), &DotDetectorParams::default(), 64);
         times_ms.push((t.elapsed().as_secs_f64() * 1e3, img.width(), img.height()));
+        // The search as `check` and `measure` run it: along the set's calibrated line (its
+        // own `calibration/fitted.json` when the dot evaluation made one, else the truth).
+        let dir = path.parent().unwrap_or(Path::new("."));
+        let cal = [dir.join("calibration/fitted.json"), dir.join("cal.json")].into_iter().find(|p| p.is_file());
+        if let Some(cal) = cal.and_then(|c| fslcal::calibration::load(&c).ok()) {
+            let t = Instant::now();
+            let _ = find_dot_on_laser_line(&view, &cal.camera, &cal.laser, &cal.line_search());
+            line_ms.push(t.elapsed().as_secs_f64() * 1e3);
+        }
         let found = find_dot_candidates(&view, &SearchRegion::default(), &params, 64);
         let truth: Value = std::fs::read_to_string(path.with_extension("truth.json"))
             .ok()
@@ -106,6 +118,15 @@ fn main() {
         }
     }
     report(&list, &times_ms, &hist);
+    if !line_ms.is_empty() {
+        line_ms.sort_by(f64::total_cmp);
+        println!(
+            "\ndot search along the calibrated line (as check and measure run it), one thread, {} photos: median {:.1} ms, worst {:.1} ms (target < 40 ms)",
+            line_ms.len(),
+            line_ms[line_ms.len() / 2],
+            line_ms[line_ms.len() - 1]
+        );
+    }
 }
 
 fn report(list: &[PathBuf], times_ms: &[(f64, u32, u32)], hist: &BTreeMap<String, [usize; EDGES.len() - 1]>) {
