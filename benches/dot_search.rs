@@ -11,6 +11,7 @@
 //! run, along the set's calibrated line. Asserts nothing about time.
 
 use fslcal::dot::candidates::{find_dot_candidates, ChannelOrder, ColourView, DotDetectorParams, SearchRegion};
+use fslcal::dot::colour::ColourSource;
 use fslcal::dot::on_line::find_dot_on_laser_line;
 use serde_json::Value;
 use std::collections::BTreeMap;
@@ -86,6 +87,7 @@ fn main() {
     let mut times_ms = Vec::new();
     let mut line_ms = Vec::new();
     let mut hist: BTreeMap<String, [usize; EDGES.len() - 1]> = BTreeMap::new();
+    let mut hist_learned = hist.clone();
     for path in &list {
         let Ok(img) = image::open(path) else { continue };
         let img = img.to_rgb8();
@@ -103,21 +105,30 @@ fn main() {
         // own `calibration/fitted.json` when the dot evaluation made one, else the truth).
         let dir = path.parent().unwrap_or(Path::new("."));
         let cal = [dir.join("calibration/fitted.json"), dir.join("cal.json")].into_iter().find(|p| p.is_file());
-        if let Some(cal) = cal.and_then(|c| fslcal::calibration::load(&c).ok()) {
+        let cal = cal.and_then(|c| fslcal::calibration::load(&c).ok());
+        if let Some(cal) = &cal {
             let t = Instant::now();
             let _ = find_dot_on_laser_line(&view, &cal.camera, &cal.laser, &cal.line_search());
             line_ms.push(t.elapsed().as_secs_f64() * 1e3);
         }
-        let found = find_dot_candidates(&view, &SearchRegion::default(), &params, 64);
+        // Scores along the colour the unit's calibration learned, where it has one.
+        let colour = cal.map_or(params.colour, |c| c.dot_detector().colour);
+        let scored = if colour.source == ColourSource::Prior { &mut hist } else { &mut hist_learned };
+        let found =
+            find_dot_candidates(&view, &SearchRegion::default(), &DotDetectorParams { colour, ..params.clone() }, 64);
         let truth: Value = std::fs::read_to_string(path.with_extension("truth.json"))
             .ok()
             .and_then(|s| serde_json::from_str(&s).ok())
             .unwrap_or(Value::Null);
         for c in &found {
-            hist.entry(label(&truth, [c.pixel.x, c.pixel.y])).or_insert([0; EDGES.len() - 1])[bin(c.colour_score)] += 1;
+            scored.entry(label(&truth, [c.pixel.x, c.pixel.y])).or_insert([0; EDGES.len() - 1])[bin(c.colour_score)] +=
+                1;
         }
     }
-    report(&list, &times_ms, &hist);
+    report(&list, &times_ms, &hist, "the green prior (sets without a learned colour)");
+    if !hist_learned.is_empty() {
+        histogram(&hist_learned, "the laser colour the unit's own calibration learned");
+    }
     if !line_ms.is_empty() {
         line_ms.sort_by(f64::total_cmp);
         println!(
@@ -129,7 +140,7 @@ fn main() {
     }
 }
 
-fn report(list: &[PathBuf], times_ms: &[(f64, u32, u32)], hist: &BTreeMap<String, [usize; EDGES.len() - 1]>) {
+fn report(list: &[PathBuf], times_ms: &[(f64, u32, u32)], hist: &Histogram, colour: &str) {
     let mut t: Vec<f64> = times_ms.iter().map(|x| x.0).collect();
     t.sort_by(f64::total_cmp);
     let sizes: Vec<String> = times_ms
@@ -149,7 +160,16 @@ fn report(list: &[PathBuf], times_ms: &[(f64, u32, u32)], hist: &BTreeMap<String
         t[t.len() / 2],
         t[t.len() - 1],
     );
-    println!("\ncolour score (sigmas) of every blob the search returns, by what the truth says it is");
+    histogram(hist, colour);
+}
+
+type Histogram = BTreeMap<String, [usize; EDGES.len() - 1]>;
+
+fn histogram(hist: &Histogram, colour: &str) {
+    if hist.is_empty() {
+        return;
+    }
+    println!("\ncolour score (sigmas) along {colour} of every blob the search returns, by what the truth says it is");
     let heads: Vec<String> = EDGES
         .windows(2)
         .map(|w| match (w[0].is_finite(), w[1].is_finite()) {
