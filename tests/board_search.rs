@@ -135,30 +135,42 @@ fn far_boards_in_coastal_and_harbour_water_are_found() {
         println!("{what}: {:?}", r.as_ref().map(|r| (r.step, r.median_px(), r.worst_px())));
         if let Some(r) = r {
             // A corner under the laser's dot or a glint refines off; the pose fit's
-            // reprojection gate deals with a few of those.
+            // reprojection gate deals with a few of those. (set14_08, a 3.5 m board in green
+            // water that only the plain sector step finds, has 3 of 140 over 1 px, worst 1.7.)
             assert!(r.median_px() < 0.3, "{what}: corners {:.2} px from the truth", r.median_px());
-            assert!(r.beyond(1.0) <= 2, "{what}: {} corners over 1 px from the truth", r.beyond(1.0));
+            assert!(r.beyond(1.0) <= 3, "{what}: {} corners over 1 px from the truth", r.beyond(1.0));
             found += 1;
         }
     }
-    // Seeds 11-14 give six such photos (all coastal), none of which the quad steps find;
-    // the sector step finds five (set14_08, a 3.5 m board, stays missed).
-    assert!(found + 1 >= photos.len(), "{found} of {} far boards found", photos.len());
+    // Seeds 11-14 give five such photos (all coastal), none of which the quad steps find;
+    // the equalised sector step finds four, the plain one the fifth (set14_08).
+    assert_eq!(found, photos.len(), "{found} of {} far boards found", photos.len());
 }
 
 #[test]
 fn the_search_plan_is_bounded_for_every_photo_size() {
     // The sector step, the one whose cost grows fastest with the image, never runs on an
-    // image wider than 1100 px; the quad steps never at full size on a large photo.
+    // image wider than 1100 px; the quad steps never at full size on a large photo. Both
+    // sector variants run (OpenCV 4.6 finds some boards only with equalisation, others only
+    // without).
     for width in [640u32, 1000, 1600, 2000, 4000, 6000, 8000] {
         let plan = search_plan(width);
         println!("{width}: {plan:?}");
         for step in &plan {
             match *step {
-                SearchStep::Sectors { factor } => assert!(width / factor <= 1100, "{width}: {step:?}"),
-                SearchStep::Quads { factor } => assert!(width / factor <= 2000, "{width}: {step:?}"),
+                SearchStep::Sectors { factor, .. } => assert!(width / factor <= 1100, "{width}: {step:?}"),
+                SearchStep::Quads { factor } => assert!(width / factor >= 400 || factor == 1, "{width}: {step:?}"),
             }
         }
-        assert!(matches!(plan.last(), Some(SearchStep::Sectors { .. })));
+        for normalised in [true, false] {
+            assert!(plan.iter().any(|s| matches!(s, SearchStep::Sectors { normalised: n, .. } if *n == normalised)));
+        }
+        // No step runs on an image wider than 1100 px: a quad search on a 2000 px image
+        // ground for over 100 s on two held-out photos.
+        for step in &plan {
+            if let SearchStep::Quads { factor } = *step {
+                assert!(width / factor <= 1100, "{width}: {plan:?}");
+            }
+        }
     }
 }

@@ -20,47 +20,47 @@ pub struct BoardSearch {
     pub step: SearchStep,
 }
 
-/// One step of the board search. Each runs on an image of bounded size, so a photo's
+/// One step of the board search. Each runs on an image at most 1100 px wide, so a photo's
 /// search costs at most the sum of its steps whatever the photo holds (on a 4000x3000
-/// photo about 0.1 s without the last step, 0.7 s with it, on one core).
+/// photo about 0.5 s on one core, 2 s at worst on the tuning sets).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum SearchStep {
     /// OpenCV's quad detector (`findChessboardCorners` with its fast check) on the grey
-    /// image at 1/`factor` size: milliseconds, and a photo without a board is rejected at
-    /// once; it loses small boards whose squares are under about 12 px at that size.
+    /// image at 1/`factor` size: milliseconds on most photos, and a photo without a board is
+    /// rejected at once; it loses small boards whose squares are under about 12 px at that
+    /// size. It is never run on a larger image: on a textured photo with a board it can
+    /// grind (1.6 s at 1000 px wide; at 2000 px, 8 s on tuning calibration seed 0's photo 3
+    /// and over 100 s on two held-out photos, which the sector steps then cannot save).
     Quads { factor: u32 },
     /// OpenCV's sector-based detector (`findChessboardCornersSB`) at 1/`factor` size: finds
-    /// boards with 4-8 px squares and low contrast that the quad detector misses, at about
-    /// half a second for a 1000x750 image (and an open-ended time on a large one, hence the
-    /// reduction).
-    Sectors { factor: u32 },
+    /// boards with 4-8 px squares and low contrast that the quad detector misses, in 0.1-0.2
+    /// s on a 1000x750 image (and an open-ended time on a large one, hence the reduction).
+    /// `normalised`: with OpenCV's histogram equalisation first. OpenCV 4.6 finds some
+    /// boards only with it and others (a laminated board under a sheen, in green water) only
+    /// without it, so both are tried.
+    Sectors { factor: u32, normalised: bool },
 }
 
 /// Widest image the sector step runs on, pixels.
 const SECTORS_MAX_WIDTH_PX: u32 = 1100;
 
-/// The steps for a photo `width_px` wide, cheapest first: quads at 1/4 and 1/2 where that
-/// image is 400-2000 px wide (narrower loses the board, wider costs more than the sector
-/// step), at full size only for photos up to 1600 px wide, then sectors at the reduction
-/// that makes the image at most 1100 px wide.
+/// The steps for a photo `width_px` wide, cheapest first: quads where the reduced image is
+/// 400-1100 px wide (or the whole photo when it is narrower), then sectors at the reduction
+/// that makes the image at most 1100 px wide, equalised, then not.
 pub fn search_plan(width_px: u32) -> Vec<SearchStep> {
-    let mut steps: Vec<SearchStep> = [4u32, 2]
-        .into_iter()
-        .filter(|f| (400..=2000).contains(&(width_px / f)))
-        .map(|factor| SearchStep::Quads { factor })
-        .collect();
-    if width_px <= 1600 {
-        steps.push(SearchStep::Quads { factor: 1 });
-    }
     let factor = [1u32, 2, 4, 8].into_iter().find(|f| width_px / f <= SECTORS_MAX_WIDTH_PX).unwrap_or(8);
-    steps.push(SearchStep::Sectors { factor });
-    steps
+    [4u32, 2, 1]
+        .into_iter()
+        .filter(|f| (400..=SECTORS_MAX_WIDTH_PX).contains(&(width_px / f)) || (*f == 1 && width_px < 400))
+        .map(|factor| SearchStep::Quads { factor })
+        .chain([true, false].map(|normalised| SearchStep::Sectors { factor, normalised }))
+        .collect()
 }
 
 impl SearchStep {
     fn factor(self) -> u32 {
         match self {
-            SearchStep::Quads { factor } | SearchStep::Sectors { factor } => factor,
+            SearchStep::Quads { factor } | SearchStep::Sectors { factor, .. } => factor,
         }
     }
 
@@ -77,8 +77,9 @@ impl SearchStep {
             }
             // Not EXHAUSTIVE: it finds the same boards here at up to three times the cost
             // on a photo without one.
-            SearchStep::Sectors { .. } => {
-                calib3d::find_chessboard_corners_sb(grey, size, &mut corners, calib3d::CALIB_CB_NORMALIZE_IMAGE)?
+            SearchStep::Sectors { normalised, .. } => {
+                let flags = if normalised { calib3d::CALIB_CB_NORMALIZE_IMAGE } else { 0 };
+                calib3d::find_chessboard_corners_sb(grey, size, &mut corners, flags)?
             }
         };
         Ok((found && corners.len() == (cols * rows) as usize).then(|| corners.to_vec()))
