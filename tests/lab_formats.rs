@@ -250,7 +250,10 @@ fn the_labs_4040x3016_frame_gives_the_same_laser_as_fslcals_own() {
         eprintln!(
             "{name} vs fslcal frame: origin {o:.2e} mm, direction {a:.2e} deg, depth at 1/3/5 m within {z:.2e} mm"
         );
-        assert!(o < 1e-6 && a < 1e-7 && z < 1e-6, "{name}: {o} mm {a} deg {z} mm");
+        // The undistortion is iterative: the round trip keeps each dot to about 1e-9 px, which
+        // the fit turns into up to about 1e-6 deg of direction (8.5e-7 seen), depending on the
+        // boards' poses. A frame mixed up is 8 px per dot, degrees of direction.
+        assert!(o < 1e-6 && a < 1e-5 && z < 1e-6, "{name}: {o} mm {a} deg {z} mm");
         assert_eq!(v["camera"], own["camera"], "{name}: the lens lands on fslcal's picture");
         assert_eq!(v["dots_file"]["matched"], dots.len());
     }
