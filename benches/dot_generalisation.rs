@@ -8,11 +8,11 @@
 //!
 //! - calibration and slate sets: `fslcal laser --json`, each photo's `dot_px` and `status`
 //!   (a wrong dot is either used in the fit or caught as an outlier);
-//! - target-less sets (fish, reef): `fslcal check --json --cal CAL` with the unit's true
-//!   calibration, and `fslcal measure --labels --json` (its `dot_px` per fish). The
-//!   calibration is what `fslcal laser` made of the unit's companion calibration photos (10
-//!   of the board, `VarietySet::companion_calibration`), as a diver's would be: its fit and
-//!   the laser colour it learned; `--true-cal` uses the unit's true calibration instead.
+//! - target-less sets (fish, reef): `fslcal check --json --cal CAL` and `fslcal measure
+//!   --labels --json` (its `dot_px` per fish). CAL is what `fslcal laser` made of the
+//!   unit's companion calibration photos (10 of the board,
+//!   `VarietySet::companion_calibration`), as a diver's would be: its fit and the laser
+//!   colour it learned; `--true-cal` uses the unit's true calibration instead.
 //!
 //! Options: `--first-seed S` (default 1000000, the first held-out seed; `--tuning` for 0),
 //! `--sets N` or `--sets calibration=N,slate=N,targetless=N` (default 2, 1, 2), `--size WxH`

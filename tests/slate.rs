@@ -117,7 +117,6 @@ fn validation_passes_a_right_calibration_and_fails_a_laser_off_by_half_a_degree(
         length_name: None,
         rule,
         tolerance_pct: 3.0,
-        detector: DotDetectorParams::default(),
     };
     let right = validate(&job(fsl_laser(), LengthRule::TiltedPlane), &set.photos, &|| {}).unwrap();
     let worst = right.photos.iter().filter_map(|p| p.error_pct).fold(0.0f64, |a, e| a.max(e.abs()));

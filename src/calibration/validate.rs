@@ -8,8 +8,7 @@
 //! length error against distance is fitted and a significant trend fails the run.
 
 use crate::calibration::Calibration;
-use crate::dot::candidates::DotDetectorParams;
-use crate::dot::on_line::{choose, line_candidates, DotOnLineError, LineCandidate, LineSearch};
+use crate::dot::on_line::{choose, line_candidates, DotOnLineError, LineCandidate};
 use crate::laser::outcome::TargetMiss;
 use crate::laser::pipeline::LaserError;
 use crate::laser::target::{locate_target, LocatedTarget, Target};
@@ -34,7 +33,6 @@ pub struct ValidationJob {
     pub rule: LengthRule,
     /// Pass when |error| is at most this, percent.
     pub tolerance_pct: f64,
-    pub detector: DotDetectorParams,
 }
 
 /// The run's result.
@@ -214,7 +212,7 @@ fn measure_on_target(
 /// measured fails the run.
 fn choose_dot(job: &ValidationJob, t: &LocatedTarget) -> Result<(Vec2, DotFix), ValidationSkip> {
     let (camera, laser) = (&job.cal.camera, &job.cal.laser);
-    let search = LineSearch { detector: job.detector.clone(), ..job.cal.line_search() };
+    let search = job.cal.line_search();
     let plane = t.pose.plane();
     let all = line_candidates(&t.photo.colour(), camera, laser, &search).map_err(|_| ValidationSkip::NoDot)?;
     let on_target: Vec<LineCandidate> =

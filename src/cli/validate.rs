@@ -82,14 +82,8 @@ pub fn run(args: ValidateArgs) -> anyhow::Result<ExitCode> {
     let args = ValidateArgs { photos: super::photos::prepare(&args.photos)?, ..args };
     args.body.check(&ExpectedCamera::from(&cal), &args.photos)?;
     let target = args.target.load()?;
-    let job = ValidationJob {
-        detector: cal.dot_detector(),
-        cal,
-        target,
-        length_name: args.length.clone(),
-        rule: args.rule,
-        tolerance_pct: args.tolerance,
-    };
+    let job =
+        ValidationJob { cal, target, length_name: args.length.clone(), rule: args.rule, tolerance_pct: args.tolerance };
     // The report's thumbnails come from each photo's one decode, kept while the run lasts.
     let _thumbnails = args.report.is_some().then(|| Keeping::start(report::THUMBNAIL_WIDTH_PX));
     let bar = progress::bar(args.photos.len(), "photos", args.json);

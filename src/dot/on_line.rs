@@ -321,17 +321,18 @@ fn misfit(camera: &CameraModel, c: &DotCandidate, z_m: f64) -> Option<Refusal> {
 /// spread by the largest divergence, plus blur and halo. (A clipped core blooms without
 /// bound and is judged by its halo's colour instead.)
 pub fn largest_radius_px(camera: &CameraModel, z_m: f64) -> f64 {
-    let scale = camera.width_px as f64 / 4000.0;
-    camera.fx_px * (BEAM_RADIUS_M + BEAM_HALF_DIVERGENCE_RAD * z_m) / z_m.max(0.05)
-        + (HALO_PX * scale).max(HALO_FLOOR_PX)
+    widest_beam_px(camera, z_m) + (HALO_PX * camera.width_px as f64 / 4000.0).max(HALO_FLOOR_PX)
 }
 
 /// Largest half-peak radius of an unclipped dot at depth `z_m`, pixels: the widest beam
 /// spread by the largest divergence, plus blur ([`CORE_BLUR_PX`]).
 pub fn largest_core_radius_px(camera: &CameraModel, z_m: f64) -> f64 {
-    let scale = camera.width_px as f64 / 4000.0;
+    widest_beam_px(camera, z_m) + (CORE_BLUR_PX * camera.width_px as f64 / 4000.0).max(HALO_FLOOR_PX)
+}
+
+/// Radius of the widest beam spread by the largest divergence at depth `z_m`, pixels.
+fn widest_beam_px(camera: &CameraModel, z_m: f64) -> f64 {
     camera.fx_px * (BEAM_RADIUS_M + BEAM_HALF_DIVERGENCE_RAD * z_m) / z_m.max(0.05)
-        + (CORE_BLUR_PX * scale).max(HALO_FLOOR_PX)
 }
 
 /// The dot among `candidates`: the plausible one carrying at least [`CLEAR_CONFIDENCE`] of
