@@ -306,14 +306,24 @@ fn misfit(camera: &CameraModel, c: &DotCandidate, z_m: f64) -> Option<Refusal> {
     let smallest = 0.5 * camera.fx_px * BEAM_MIN_RADIUS_M / z_m.max(0.05);
     if c.radius_px < smallest {
         Some(Refusal::TooSmall)
-    } else if c.saturated_core {
-        (c.core_radius_px > BLOOM_FACTOR * largest_radius_px(camera, z_m)).then_some(Refusal::TooLarge)
-    } else if c.core_radius_px > largest_core_radius_px(camera, z_m) {
+    } else if too_large(camera, c, z_m) {
         Some(Refusal::TooLarge)
     } else if c.snr < MIN_SNR_AT_1M * scale / z_m.max(0.05) {
         Some(Refusal::TooFaint)
     } else {
         None
+    }
+}
+
+/// Whether a blob's core is larger than a laser dot's can be at depth `z_m`: an unclipped
+/// core wider than the widest beam there (plus blur), or a clipped one blooming past
+/// [`BLOOM_FACTOR`] times the largest unclipped dot. A sun fleck or a lamp's glint is large
+/// wherever it lies; a dot is small at its own distance.
+pub fn too_large(camera: &CameraModel, c: &DotCandidate, z_m: f64) -> bool {
+    if c.saturated_core {
+        c.core_radius_px > BLOOM_FACTOR * largest_radius_px(camera, z_m)
+    } else {
+        c.core_radius_px > largest_core_radius_px(camera, z_m)
     }
 }
 

@@ -66,9 +66,65 @@ pub fn choose(
     min_photos: usize,
 ) -> Option<Vec<Choice>> {
     let ranks: Vec<Vec<usize>> = photos.iter().map(|p| ranked(p.candidates)).collect();
+    let (n, line) = best_line(camera, photos, &ranks, gate_px)?;
+    if n < min_photos {
+        return None;
+    }
+    let mut choices: Vec<Choice> =
+        photos.iter().zip(&ranks).map(|(p, r)| choice(camera, p, r, &line, gate_px)).collect();
+    keep_strong_only_on_a_second_line(camera, photos, &mut choices, gate_px);
+    Some(choices)
+}
+
+/// Strong blobs off the consensus line are kept for the fit only where they lie on a line
+/// of their own through at least [`SECOND_LINE_PHOTOS`] photos: that is a laser that moved
+/// during the session, and the fit must see it to refuse. Scattered strong blobs (sun
+/// flecks, glints, bright algae) lie on no line; sent to the fit, four of them made it
+/// refuse a set whose five dots were right (tuning calibration seed 1).
+fn keep_strong_only_on_a_second_line(
+    camera: &CameraModel,
+    photos: &[PhotoCandidates],
+    choices: &mut [Choice],
+    gate_px: f64,
+) {
+    let strong: Vec<(usize, usize)> = choices
+        .iter()
+        .enumerate()
+        .filter_map(|(i, c)| match c {
+            Choice::StrongOffLine { index, .. } => Some((i, *index)),
+            _ => None,
+        })
+        .collect();
+    let alone: Vec<PhotoCandidates> = strong
+        .iter()
+        .map(|&(i, k)| PhotoCandidates { plane: photos[i].plane, candidates: &photos[i].candidates[k..=k] })
+        .collect();
+    let only_one = vec![vec![0usize]; alone.len()];
+    let second = best_line(camera, &alone, &only_one, gate_px).filter(|(n, _)| *n >= SECOND_LINE_PHOTOS);
+    for (&(i, _), p) in strong.iter().zip(&alone) {
+        let on_second =
+            second.as_ref().and_then(|(_, line)| nearest(camera, p, &[0], line)).is_some_and(|(_, d)| d <= gate_px);
+        if !on_second {
+            choices[i] = Choice::None;
+        }
+    }
+}
+
+/// Photos whose strong off-line blobs must share a line before they count as a moved laser:
+/// any two blobs make a line, a third tests it.
+const SECOND_LINE_PHOTOS: usize = 3;
+
+/// The line through two photos' candidates that the most photos support (then the most
+/// colour evidence), and how many photos support it.
+fn best_line(
+    camera: &CameraModel,
+    photos: &[PhotoCandidates],
+    ranks: &[Vec<usize>],
+    gate_px: f64,
+) -> Option<(usize, LaserLine)> {
     let points: Vec<Vec<(usize, fslcal_core::Vec3)>> = photos
         .iter()
-        .zip(&ranks)
+        .zip(ranks)
         .map(|(p, r)| {
             r.iter().filter_map(|&k| dot_point(camera, &p.plane, p.candidates[k].pixel).map(|q| (k, q))).collect()
         })
@@ -82,7 +138,7 @@ pub fn choose(
                         continue;
                     }
                     let Some(line) = LaserLine::from_point_direction(*a, b - a) else { continue };
-                    let (n, evidence) = support(camera, photos, &ranks, &line, gate_px);
+                    let (n, evidence) = support(camera, photos, ranks, &line, gate_px);
                     let better = best.as_ref().is_none_or(|(bn, be, _)| n > *bn || (n == *bn && evidence > *be));
                     if better {
                         best = Some((n, evidence, line));
@@ -91,11 +147,7 @@ pub fn choose(
             }
         }
     }
-    let (n, _, line) = best?;
-    if n < min_photos {
-        return None;
-    }
-    Some(photos.iter().zip(&ranks).map(|(p, r)| choice(camera, p, r, &line, gate_px)).collect())
+    best.map(|(n, _, line)| (n, line))
 }
 
 /// Photos with a candidate within the gate of `line`'s image, and the colour evidence of
@@ -223,6 +275,44 @@ mod tests {
                 }
                 (_, Choice::Ambiguous { .. }) => panic!("photo {i}: {ch:?}"),
             }
+        }
+    }
+
+    /// Six photos' dots on the laser; three more photos with only a strong blob each off
+    /// it. Scattered, the blobs are dropped; on a line of their own (the laser moved after
+    /// the sixth photo), they go to the fit for it to refuse.
+    #[test]
+    fn strong_blobs_off_the_line_count_only_when_they_share_a_line() {
+        let cam = camera();
+        let before = LaserLine::from_point_direction(Vec3::new(0.1, -0.05, 0.0), Vec3::new(-0.02, 0.01, 1.0)).unwrap();
+        let after = LaserLine::from_point_direction(Vec3::new(0.1, -0.05, 0.0), Vec3::new(0.15, 0.1, 1.0)).unwrap();
+        let plane = |i: usize| Plane::through(Vec3::new(0.0, 0.0, 0.6 + 0.45 * i as f64), Vec3::new(0.0, 0.0, -1.0));
+        let run = |moved: bool| {
+            let planes: Vec<Plane> = (0..9).map(plane).collect();
+            let cands: Vec<Vec<DotCandidate>> = planes
+                .iter()
+                .enumerate()
+                .map(|(i, pl)| {
+                    let px = if i < 6 {
+                        cam.project(&before.hit(pl).unwrap()).unwrap()
+                    } else if moved {
+                        cam.project(&after.hit(pl).unwrap()).unwrap()
+                    } else {
+                        Vec2::new(200.0 + 400.0 * (i - 6) as f64, 300.0 + 250.0 * ((i * 7) % 4) as f64)
+                    };
+                    vec![candidate(px, if i < 6 { 20.0 } else { 2.0 * STRONG_COLOUR_SIGMAS })]
+                })
+                .collect();
+            let photos: Vec<PhotoCandidates> =
+                planes.iter().zip(&cands).map(|(p, c)| PhotoCandidates { plane: *p, candidates: c }).collect();
+            choose(&cam, &photos, 12.0, 3).expect("six photos agree")
+        };
+        for (moved, want_strong) in [(false, 0), (true, 3)] {
+            let choices = run(moved);
+            let on_line = choices[..6].iter().filter(|c| matches!(c, Choice::OnLine { .. })).count();
+            let strong = choices[6..].iter().filter(|c| matches!(c, Choice::StrongOffLine { .. })).count();
+            let none = choices[6..].iter().filter(|c| matches!(c, Choice::None)).count();
+            assert_eq!((on_line, strong, none), (6, want_strong, 3 - want_strong), "moved {moved}: {choices:?}");
         }
     }
 

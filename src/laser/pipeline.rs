@@ -14,7 +14,7 @@ use crate::dot::candidates::SearchRegion;
 use crate::dot::candidates::{ChannelOrder, ColourView, DotCandidate, DotDetectorParams};
 use crate::dot::colour::LaserColourModel;
 use crate::dot::near_prediction;
-use crate::dot::on_target::{detected_sigma_px, hand_candidate, HAND_DOT_SIGMA_PX};
+use crate::dot::on_target::{detected_sigma_px, hand_candidate, sized_like_a_dot, HAND_DOT_SIGMA_PX};
 use crate::laser::fit::{self, DotObservation, FitError, Gates, LaserFit, Method};
 use crate::reason::Reason;
 use crate::vision::{self, EncodedPhoto, Photo, TargetPose};
@@ -198,6 +198,9 @@ impl HandDots {
     }
 }
 
+/// Dot candidates a photo keeps for the consensus and its report.
+const CANDIDATES_KEPT: usize = 8;
+
 /// Stage one for one photo: target, pose, dot candidates.
 pub fn examine_photo(job: &LaserJob, path: &Path) -> Result<PhotoResult, LaserError> {
     examine(job, path, &CropBudget::new())
@@ -214,7 +217,12 @@ fn examine(job: &LaserJob, path: &Path, budget: &CropBudget) -> Result<PhotoResu
         Some(px) => (vec![hand_candidate(px)], DotSource::Hand),
         None => {
             let region = SearchRegion { polygon: outline.clone(), band: None };
-            (job.target.find_dots(&photo.colour(), &region, &job.detector, 8), DotSource::Detected)
+            // Sun flecks and glints larger than any dot at the board's distance are dropped
+            // before the cap, so a crowd of them cannot push the dot out.
+            let plane = pose.plane();
+            let found = job.target.find_dots(&photo.colour(), &region, &job.detector, 4 * CANDIDATES_KEPT);
+            let sized = found.into_iter().filter(|c| sized_like_a_dot(&job.camera, &plane, c));
+            (sized.take(CANDIDATES_KEPT).collect(), DotSource::Detected)
         }
     };
     let board_pixels = PixelCrop::of(&photo.colour(), &outline, budget);
