@@ -142,37 +142,43 @@ fn far_boards_in_coastal_and_harbour_water_are_found() {
             found += 1;
         }
     }
-    // Seeds 11-14 give five such photos (all coastal), none of which the quad steps find;
-    // the equalised sector step finds four, the plain one the fifth (set14_08).
+    // Seeds 11-14 give six such photos (all coastal), none of which the quad steps find;
+    // the equalised sector step finds five, the plain one the sixth (set14_08).
     assert_eq!(found, photos.len(), "{found} of {} far boards found", photos.len());
 }
 
 #[test]
 fn the_search_plan_is_bounded_for_every_photo_size() {
-    // The sector step, the one whose cost grows fastest with the image, never runs on an
-    // image wider than 1100 px; the quad steps never at full size on a large photo. Both
-    // sector variants run (OpenCV 4.6 finds some boards only with equalisation, others only
-    // without).
+    // No step runs on an image wider than 1100 px (a quad search on a 2000 px image ground
+    // for 9 s on a tuning photo without equalisation, over 100 s on two held-out photos
+    // with it), and the equalised quad search never on one wider than 640 px (3.5 s at
+    // 1000 px on another). Both sector variants run (OpenCV 4.6 finds some boards only with
+    // equalisation, others only without).
     for width in [640u32, 1000, 1600, 2000, 4000, 6000, 8000] {
         let plan = search_plan(width);
         println!("{width}: {plan:?}");
         for step in &plan {
             match *step {
                 SearchStep::Sectors { factor, .. } => assert!(width / factor <= 1100, "{width}: {step:?}"),
-                SearchStep::Quads { factor } => assert!(width / factor >= 400 || factor == 1, "{width}: {step:?}"),
+                SearchStep::Quads { factor, normalised } => {
+                    assert!(width / factor >= 400 || factor == 1, "{width}: {step:?}");
+                    assert!(width / factor <= if normalised { 640 } else { 1100 }, "{width}: {step:?}");
+                }
             }
         }
         for normalised in [true, false] {
             assert!(plan.iter().any(|s| matches!(s, SearchStep::Sectors { normalised: n, .. } if *n == normalised)));
         }
-        // No step runs on an image wider than 1100 px (a quad search on a 2000 px image
-        // ground for over 100 s on two held-out photos), and in a large photo no quad search
-        // on one wider than 640 px (3.5 s at 1000 px on another).
-        let widest_quads = if width > 2000 { 640 } else { 1100 };
-        for step in &plan {
-            if let SearchStep::Quads { factor } = *step {
-                assert!(width / factor <= widest_quads, "{width}: {plan:?}");
-            }
-        }
+        // Some quad step runs on an image 400-1100 px wide, however large the photo.
+        assert!(plan.iter().any(|s| matches!(*s, SearchStep::Quads { .. })), "{width}: {plan:?}");
     }
+    assert_eq!(
+        search_plan(4000),
+        [
+            SearchStep::Quads { factor: 8, normalised: true },
+            SearchStep::Quads { factor: 4, normalised: false },
+            SearchStep::Sectors { factor: 4, normalised: true },
+            SearchStep::Sectors { factor: 4, normalised: false },
+        ]
+    );
 }

@@ -25,13 +25,17 @@ pub struct BoardSearch {
 /// photo under a second on one core).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum SearchStep {
-    /// OpenCV's quad detector (`findChessboardCorners` with its fast check) on the grey
-    /// image at 1/`factor` size: milliseconds on most photos, and a photo without a board is
-    /// rejected at once; it loses small boards whose squares are under about 12 px at that
-    /// size. It is never run on a larger image: on a textured photo with a board it can
-    /// grind (1.6 s at 1000 px wide; at 2000 px, 8 s on tuning calibration seed 0's photo 3
-    /// and over 100 s on two held-out photos, which the sector steps then cannot save).
-    Quads { factor: u32 },
+    /// OpenCV's quad detector (`findChessboardCorners`, adaptive threshold, fast check) on
+    /// the grey image at 1/`factor` size: milliseconds on most photos, and a photo without a
+    /// board is rejected at once; it loses small boards whose squares are under about 12 px
+    /// at that size. `normalised`: with OpenCV's histogram equalisation first, which is
+    /// what makes it grind on a textured photo with a board (equalised texture is a sea of
+    /// quads: 0.6-2.7 s at 1000 px wide on 3 of 30 tuning calibration photos, 3.5 s on a
+    /// held-out one, over 100 s at 2000 px), so it runs equalised only on images up to 640
+    /// px wide. Without it the same 1000 px search took at most 0.39 s on 114 tuning
+    /// calibration photos (median 12 ms) and found boards the equalised one ground on and
+    /// lost; at 2000 px it still took up to 9 s, so it is never run wider than 1100 px.
+    Quads { factor: u32, normalised: bool },
     /// OpenCV's sector-based detector (`findChessboardCornersSB`) at 1/`factor` size: finds
     /// boards with 4-8 px squares and low contrast that the quad detector misses, in 0.1-0.2
     /// s on a 1000x750 image (and an open-ended time on a large one, hence the reduction).
@@ -41,27 +45,21 @@ pub enum SearchStep {
     Sectors { factor: u32, normalised: bool },
 }
 
-/// Widest image the sector step runs on, pixels.
-const SECTORS_MAX_WIDTH_PX: u32 = 1100;
+/// Widest image any step runs on, pixels.
+const MAX_STEP_WIDTH_PX: u32 = 1100;
 
-/// Widest image the quad step runs on in a photo wider than 2000 px, pixels: on a large
-/// textured photo with a board the quad detector ground for 3.5 s at 1000 px wide (held-out
-/// calibration seed 1 000 001, photo 0) and 2 s on tuning seed 0's photo 3, and found
-/// nothing; at 500 px it takes milliseconds and still finds the near boards, and the sector
-/// step finds the rest.
-const QUADS_MAX_WIDTH_LARGE_PX: u32 = 640;
+/// Widest image the equalised quad step runs on, pixels (see [`SearchStep::Quads`]).
+const QUADS_NORMALISED_MAX_WIDTH_PX: u32 = 640;
 
-/// The steps for a photo `width_px` wide, cheapest first: quads where the reduced image is
-/// 400-1100 px wide (400-640 px for a photo wider than 2000 px; the whole photo when it is
-/// narrower than 400 px), then sectors at the reduction that makes the image at most 1100
-/// px wide, equalised, then not.
+/// The steps for a photo `width_px` wide, cheapest first: quads on every reduction 400-1100
+/// px wide (the whole photo when it is narrower than 400 px), equalised up to 640 px, then
+/// sectors at the reduction that makes the image at most 1100 px wide, equalised, then not.
 pub fn search_plan(width_px: u32) -> Vec<SearchStep> {
-    let factor = [1u32, 2, 4, 8].into_iter().find(|f| width_px / f <= SECTORS_MAX_WIDTH_PX).unwrap_or(8);
-    let widest_quads = if width_px > 2000 { QUADS_MAX_WIDTH_LARGE_PX } else { SECTORS_MAX_WIDTH_PX };
+    let factor = [1u32, 2, 4, 8].into_iter().find(|f| width_px / f <= MAX_STEP_WIDTH_PX).unwrap_or(8);
     [8u32, 4, 2, 1]
         .into_iter()
-        .filter(|f| (400..=widest_quads).contains(&(width_px / f)) || (*f == 1 && width_px < 400))
-        .map(|factor| SearchStep::Quads { factor })
+        .filter(|f| (400..=MAX_STEP_WIDTH_PX).contains(&(width_px / f)) || (*f == 1 && width_px < 400))
+        .map(|factor| SearchStep::Quads { factor, normalised: width_px / factor <= QUADS_NORMALISED_MAX_WIDTH_PX })
         .chain([true, false].map(|normalised| SearchStep::Sectors { factor, normalised }))
         .collect()
 }
@@ -69,7 +67,7 @@ pub fn search_plan(width_px: u32) -> Vec<SearchStep> {
 impl SearchStep {
     fn factor(self) -> u32 {
         match self {
-            SearchStep::Quads { factor } | SearchStep::Sectors { factor, .. } => factor,
+            SearchStep::Quads { factor, .. } | SearchStep::Sectors { factor, .. } => factor,
         }
     }
 
@@ -78,10 +76,9 @@ impl SearchStep {
         let size = Size::new(cols as i32, rows as i32);
         let mut corners = Vector::<Point2f>::new();
         let found = match self {
-            SearchStep::Quads { .. } => {
-                let flags = calib3d::CALIB_CB_ADAPTIVE_THRESH
-                    | calib3d::CALIB_CB_NORMALIZE_IMAGE
-                    | calib3d::CALIB_CB_FAST_CHECK;
+            SearchStep::Quads { normalised, .. } => {
+                let equalise = if normalised { calib3d::CALIB_CB_NORMALIZE_IMAGE } else { 0 };
+                let flags = calib3d::CALIB_CB_ADAPTIVE_THRESH | calib3d::CALIB_CB_FAST_CHECK | equalise;
                 calib3d::find_chessboard_corners(grey, size, &mut corners, flags)?
             }
             // Not EXHAUSTIVE: it finds the same boards here at up to three times the cost
