@@ -6,7 +6,6 @@
 #[path = "../tests/common/mod.rs"]
 mod common;
 
-use std::path::Path;
 use std::process::Command;
 use std::time::Instant;
 
@@ -16,7 +15,7 @@ fn main() {
     let copies = if full { 50 } else { 2 };
     eprintln!("rendering fish (not timed)...");
     let set = common::fish_set("bench-measure", 4, 5);
-    // A dive of `4 * copies` photos: each rendered photo and its mask linked under new names.
+    // A dive of `4 * copies` photos: distinct copies of each rendered photo, its mask linked.
     let dive = set.dir.join("dive");
     let _ = std::fs::remove_dir_all(&dive);
     std::fs::create_dir_all(dive.join("masks")).unwrap();
@@ -26,8 +25,8 @@ fn main() {
         for (i, (p, t)) in set.photos.iter().zip(&set.truths).enumerate() {
             let name = format!("dive_{c:03}_{i}");
             let photo = dive.join(format!("{name}.jpg"));
-            link(p, &photo);
-            link(
+            common::distinct_copy(p, &photo, c);
+            common::link(
                 &set.dir.join("masks").join(p.file_stem().unwrap()).with_extension("png"),
                 &dive.join("masks").join(format!("{name}.png")),
             );
@@ -72,11 +71,5 @@ fn main() {
             v["total"],
             rayon::current_num_threads()
         );
-    }
-}
-
-fn link(from: &Path, to: &Path) {
-    if std::fs::hard_link(from, to).is_err() {
-        std::fs::copy(from, to).unwrap();
     }
 }

@@ -433,7 +433,8 @@ fn main() {
     println!("load average at end {}", load_average());
 }
 
-/// `measure --masks` over a dive of rendered fish (each photo and mask linked several times).
+/// `measure --masks` over a dive of rendered fish (each photo copied several times, each copy
+/// distinct, its mask linked).
 fn measure(bench: &Bench) {
     let copies = if bench.full { 25 } else { 2 };
     let set = common::fish_set("bench-speed-measure", 4, 5);
@@ -446,8 +447,8 @@ fn measure(bench: &Bench) {
         for (i, (p, t)) in set.photos.iter().zip(&set.truths).enumerate() {
             let name = format!("dive_{c:03}_{i}");
             let photo = dive.join(format!("{name}.jpg"));
-            link(p, &photo);
-            link(
+            common::distinct_copy(p, &photo, c);
+            common::link(
                 &set.dir.join("masks").join(p.file_stem().unwrap()).with_extension("png"),
                 &dive.join("masks").join(format!("{name}.png")),
             );
@@ -528,14 +529,14 @@ fn slowest(bench: &Bench) {
     );
 }
 
-/// Peak memory of `fslcal laser --report` over 300 photos (the 16 linked again and again).
+/// Peak memory of `fslcal laser --report` over 300 photos (distinct copies of the 16).
 fn memory_300(bench: &Bench) {
     let dir = bench.out.join("300");
     std::fs::create_dir_all(&dir).unwrap();
     let photos: Vec<PathBuf> = (0..300)
         .map(|i| {
             let p = dir.join(format!("p{i:03}.jpg"));
-            link(&bench.set.photos[i % bench.set.photos.len()], &p);
+            common::distinct_copy(&bench.set.photos[i % bench.set.photos.len()], &p, i);
             p
         })
         .collect();
@@ -543,11 +544,4 @@ fn memory_300(bench: &Bench) {
     let args = bench.laser_args(&photos, &strings(["--report".as_ref(), report.as_os_str()]));
     let (before, after) = bench.bins.time(&args, 1);
     println!("laser --report, 300 photos: {}  (target: peak no higher than 330 MB)", pair(&before, &after, fmt));
-}
-
-fn link(from: &Path, to: &Path) {
-    let _ = std::fs::remove_file(to);
-    if std::fs::hard_link(from, to).is_err() {
-        std::fs::copy(from, to).unwrap();
-    }
 }

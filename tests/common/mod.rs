@@ -188,3 +188,21 @@ pub fn tg6_calibration(laser: LaserLine, origin_var_m2: f64, slope_var: f64) -> 
         source: "test".into(),
     }
 }
+
+/// `from` copied to `to` with `copy` written after its end-of-image marker: decoders stop
+/// at the marker, so the pixels are the same, but the bytes differ. fslcal uses a photo
+/// given twice once (by its contents), so a dive of hard-linked copies would time a handful
+/// of photos as a hundred.
+pub fn distinct_copy(from: &Path, to: &Path, copy: usize) {
+    let mut bytes = std::fs::read(from).unwrap();
+    bytes.extend_from_slice(format!("fslcal bench copy {copy}").as_bytes());
+    std::fs::write(to, bytes).unwrap();
+}
+
+/// `to` as a hard link to `from` (a copy where links are not possible).
+pub fn link(from: &Path, to: &Path) {
+    let _ = std::fs::remove_file(to);
+    if std::fs::hard_link(from, to).is_err() {
+        std::fs::copy(from, to).unwrap();
+    }
+}
