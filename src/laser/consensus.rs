@@ -39,10 +39,10 @@ pub enum Choice {
     OnLine { index: usize, offset_px: f64 },
     /// Two candidates lie on the line's image within the gate, too close to tell apart.
     Ambiguous { first: usize, second: usize },
-    /// The line misses every candidate; the best one is strong enough to be a dot (kept for
-    /// the fit to judge).
+    /// The line misses every candidate; the best one is strong enough to be a dot and lies
+    /// on a second line with others like it (kept for the fit to judge).
     StrongOffLine { index: usize, offset_px: f64 },
-    /// No candidate near the line, none strong: no usable dot.
+    /// No candidate near the line, and none strong on a second line: no usable dot.
     None,
     /// The photo had no candidates.
     Empty,
