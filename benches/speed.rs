@@ -330,7 +330,7 @@ impl Bench {
         let (plain_before, plain_after) = self.bins.time(&plain_args, self.rounds);
         let _ = plain;
         let over = |r: &Run, p: &Run| {
-            format!("+{:.0}% wall, +{:.0}% CPU", 100.0 * (r.wall_s / p.wall_s - 1.0), 100.0 * (r.cpu_s / p.cpu_s - 1.0))
+            format!("{:+.0}% wall, {:+.0}% CPU", 100.0 * (r.wall_s / p.wall_s - 1.0), 100.0 * (r.cpu_s / p.cpu_s - 1.0))
         };
         println!("laser --report, {} photos: {}", self.set.photos.len(), pair(&before, &after, fmt));
         let b = before.zip(plain_before).map(|(r, p)| over(&r, &p));
