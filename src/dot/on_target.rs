@@ -2,8 +2,7 @@
 //! found or hand-given dot carries into the fit.
 
 use super::candidates::{find_dot_candidates, ColourView, DotCandidate, DotDetectorParams, SearchRegion};
-use super::on_line::too_large;
-use fslcal_core::{CameraModel, Plane, Vec2, Vec3};
+use fslcal_core::Vec2;
 
 /// The surface the dot lies on, as far as the dot's search cares.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -37,19 +36,6 @@ pub fn find(
             find_dot_candidates(img, region, &params, max)
         }
     }
-}
-
-/// Whether a blob on the target could be the dot by its size: its core no larger than a
-/// dot's at the depth where its pixel's ray meets the target's `plane`
-/// ([`too_large`](super::on_line::too_large)). A blob whose ray misses the plane has no
-/// depth to judge it by and passes.
-pub fn sized_like_a_dot(camera: &CameraModel, plane: &Plane, c: &DotCandidate) -> bool {
-    let depth_m = camera
-        .ray(c.pixel)
-        .and_then(|ray| plane.intersect(&Vec3::zeros(), &ray))
-        .filter(|(_, t)| *t > 0.0)
-        .map(|(p, _)| p.z);
-    depth_m.is_none_or(|z| !too_large(camera, c, z))
 }
 
 /// On a slate, dot candidates need this many times the detector's usual SNR: measured on

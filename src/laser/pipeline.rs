@@ -14,11 +14,12 @@ use crate::dot::candidates::SearchRegion;
 use crate::dot::candidates::{ChannelOrder, ColourView, DotCandidate, DotDetectorParams};
 use crate::dot::colour::LaserColourModel;
 use crate::dot::near_prediction;
-use crate::dot::on_target::{detected_sigma_px, hand_candidate, sized_like_a_dot, Surface, HAND_DOT_SIGMA_PX};
+use crate::dot::on_line::too_large;
+use crate::dot::on_target::{detected_sigma_px, hand_candidate, Surface, HAND_DOT_SIGMA_PX};
 use crate::laser::fit::{self, DotObservation, FitError, Gates, LaserFit, Method};
 use crate::reason::Reason;
 use crate::vision::{self, EncodedPhoto, Photo, TargetPose};
-use fslcal_core::{CameraModel, LaserLine, Vec2};
+use fslcal_core::{CameraModel, LaserLine, Plane, Vec2};
 use rayon::prelude::*;
 use std::collections::HashMap;
 use std::path::{Path, PathBuf};
@@ -201,6 +202,15 @@ impl HandDots {
 /// Dot candidates a photo keeps for the consensus and its report.
 const CANDIDATES_KEPT: usize = 8;
 
+/// Whether a blob on a board is no larger than a dot at the depth where its ray meets the
+/// board ([`too_large`]): sun flecks and glints are large wherever they lie. A blob whose ray
+/// misses the plane passes. Every blob on a slate passes: seen at 0.45 m on white in murky
+/// water, the dot blooms past the limit (tuning slate seed 1: cores of 34-51 px, limit 41 px).
+fn sized_like_a_dot(job: &LaserJob, plane: &Plane, c: &DotCandidate) -> bool {
+    job.target.surface() != Surface::Checkerboard
+        || fit::dot_point(&job.camera, plane, c.pixel).is_none_or(|p| !too_large(&job.camera, c, p.z))
+}
+
 /// Stage one for one photo: target, pose, dot candidates.
 pub fn examine_photo(job: &LaserJob, path: &Path) -> Result<PhotoResult, LaserError> {
     examine(job, path, &CropBudget::new())
@@ -217,15 +227,11 @@ fn examine(job: &LaserJob, path: &Path, budget: &CropBudget) -> Result<PhotoResu
         Some(px) => (vec![hand_candidate(px)], DotSource::Hand),
         None => {
             let region = SearchRegion { polygon: outline.clone(), band: None };
-            // Sun flecks and glints larger than any dot at the board's distance are dropped
-            // before the cap, so a crowd of them cannot push the dot out. Not on a slate:
-            // seen at 0.45 m on white in murky water, its dot blooms past the limit (tuning
-            // slate seed 1: cores of 34-51 px, limit 41 px at 0.45 m).
+            // Blobs no dot could be at the target's distance are dropped before the cap, so
+            // a crowd of them cannot push the dot out.
             let plane = pose.plane();
             let found = job.target.find_dots(&photo.colour(), &region, &job.detector, 4 * CANDIDATES_KEPT);
-            let sized = found
-                .into_iter()
-                .filter(|c| job.target.surface() != Surface::Checkerboard || sized_like_a_dot(&job.camera, &plane, c));
+            let sized = found.into_iter().filter(|c| sized_like_a_dot(job, &plane, c));
             (sized.take(CANDIDATES_KEPT).collect(), DotSource::Detected)
         }
     };
