@@ -9,6 +9,12 @@
 //! ambiguous and withheld); a photo the line misses gets none, unless its best candidate is
 //! so strong a dot that leaving it out would hide a laser that moved: that one goes to the
 //! fit as it is, to be named an outlier there.
+//!
+//! A proposed line must also be one the rig can hold: its origin (where it crosses the
+//! camera's z = 0 plane) within the unit's plausible baseline, widened for the error of a
+//! line through two dots. Glints and algae line up by chance; a chance line through blobs
+//! at 0.9, 1.8 and 3.8 m started half a metre below the camera and outvoted the dots' own
+//! line (tuning calibration seed 9), which the fit then refused on its baseline gate.
 
 use crate::dot::candidates::DotCandidate;
 use crate::laser::fit::dot_point;
@@ -16,6 +22,12 @@ use fslcal_core::{CameraModel, LaserLine, Plane, Vec2};
 
 /// Candidates per photo the consensus looks at, best colour score first.
 const CANDIDATES_PER_PHOTO: usize = 6;
+
+/// A line through two dots may start this much nearer or farther (as a factor of the
+/// baseline range's ends) than the fit's gate allows: two dots 0.2 m apart, each a few
+/// pixels off, move the extrapolated origin by centimetres, never by the tens of
+/// centimetres a chance line through impostors is off.
+const BASELINE_SLACK: (f64, f64) = (0.5, 1.5);
 
 /// A candidate this many colour sigmas strong is a dot whatever the line says: off the
 /// consensus, it is evidence that the laser moved, not noise to drop.
@@ -56,23 +68,40 @@ fn ranked(c: &[DotCandidate]) -> Vec<usize> {
     idx
 }
 
-/// Each photo's choice under the line that the most photos agree with. `gate_px`: how far a
-/// chosen dot may lie from the line's image (before the fit refines the line). `None` when
-/// fewer than `min_photos` photos agree on any line.
+/// What the consensus may assume of the laser and how close a dot must come to it.
+#[derive(Clone, Copy, Debug)]
+pub struct LinePrior {
+    /// How far a chosen dot may lie from the line's image (before the fit refines the
+    /// line), pixels.
+    pub gate_px: f64,
+    /// The unit's plausible camera-to-laser baseline, metres (the fit's gate).
+    pub baseline_range_m: (f64, f64),
+}
+
+impl LinePrior {
+    /// Whether a line through two dots can be the rig's laser.
+    fn holds(&self, line: &LaserLine) -> bool {
+        let (lo, hi) = self.baseline_range_m;
+        (lo * BASELINE_SLACK.0..=hi * BASELINE_SLACK.1).contains(&line.baseline_m())
+    }
+}
+
+/// Each photo's choice under the line that the most photos agree with. `None` when fewer
+/// than `min_photos` photos agree on any line the rig can hold.
 pub fn choose(
     camera: &CameraModel,
     photos: &[PhotoCandidates],
-    gate_px: f64,
+    prior: &LinePrior,
     min_photos: usize,
 ) -> Option<Vec<Choice>> {
     let ranks: Vec<Vec<usize>> = photos.iter().map(|p| ranked(p.candidates)).collect();
-    let (n, line) = best_line(camera, photos, &ranks, gate_px)?;
+    let (n, line) = best_line(camera, photos, &ranks, prior)?;
     if n < min_photos {
         return None;
     }
     let mut choices: Vec<Choice> =
-        photos.iter().zip(&ranks).map(|(p, r)| choice(camera, p, r, &line, gate_px)).collect();
-    keep_strong_only_on_a_second_line(camera, photos, &mut choices, gate_px);
+        photos.iter().zip(&ranks).map(|(p, r)| choice(camera, p, r, &line, prior.gate_px)).collect();
+    keep_strong_only_on_a_second_line(camera, photos, &mut choices, prior);
     Some(choices)
 }
 
@@ -85,7 +114,7 @@ fn keep_strong_only_on_a_second_line(
     camera: &CameraModel,
     photos: &[PhotoCandidates],
     choices: &mut [Choice],
-    gate_px: f64,
+    prior: &LinePrior,
 ) {
     let strong: Vec<(usize, usize)> = choices
         .iter()
@@ -100,10 +129,12 @@ fn keep_strong_only_on_a_second_line(
         .map(|&(i, k)| PhotoCandidates { plane: photos[i].plane, candidates: &photos[i].candidates[k..=k] })
         .collect();
     let only_one = vec![vec![0usize]; alone.len()];
-    let second = best_line(camera, &alone, &only_one, gate_px).filter(|(n, _)| *n >= SECOND_LINE_PHOTOS);
+    let second = best_line(camera, &alone, &only_one, prior).filter(|(n, _)| *n >= SECOND_LINE_PHOTOS);
     for (&(i, _), p) in strong.iter().zip(&alone) {
-        let on_second =
-            second.as_ref().and_then(|(_, line)| nearest(camera, p, &[0], line)).is_some_and(|(_, d)| d <= gate_px);
+        let on_second = second
+            .as_ref()
+            .and_then(|(_, line)| nearest(camera, p, &[0], line))
+            .is_some_and(|(_, d)| d <= prior.gate_px);
         if !on_second {
             choices[i] = Choice::None;
         }
@@ -114,13 +145,13 @@ fn keep_strong_only_on_a_second_line(
 /// any two blobs make a line, a third tests it.
 const SECOND_LINE_PHOTOS: usize = 3;
 
-/// The line through two photos' candidates that the most photos support (then the most
-/// colour evidence), and how many photos support it.
+/// The line through two photos' candidates that the rig can hold and the most photos
+/// support (then the most colour evidence), and how many photos support it.
 fn best_line(
     camera: &CameraModel,
     photos: &[PhotoCandidates],
     ranks: &[Vec<usize>],
-    gate_px: f64,
+    prior: &LinePrior,
 ) -> Option<(usize, LaserLine)> {
     let points: Vec<Vec<(usize, fslcal_core::Vec3)>> = photos
         .iter()
@@ -137,8 +168,10 @@ fn best_line(
                     if (a - b).norm() < 0.2 {
                         continue;
                     }
-                    let Some(line) = LaserLine::from_point_direction(*a, b - a) else { continue };
-                    let (n, evidence) = support(camera, photos, ranks, &line, gate_px);
+                    let Some(line) = LaserLine::from_point_direction(*a, b - a).filter(|l| prior.holds(l)) else {
+                        continue;
+                    };
+                    let (n, evidence) = support(camera, photos, ranks, &line, prior.gate_px);
                     let better = best.as_ref().is_none_or(|(bn, be, _)| n > *bn || (n == *bn && evidence > *be));
                     if better {
                         best = Some((n, evidence, line));
@@ -224,6 +257,10 @@ mod tests {
         }
     }
 
+    fn prior(gate_px: f64) -> LinePrior {
+        LinePrior { gate_px, baseline_range_m: crate::laser::fit::Gates::default().baseline_range_m }
+    }
+
     fn candidate(px: Vec2, score: f64) -> DotCandidate {
         DotCandidate {
             pixel: px,
@@ -261,7 +298,7 @@ mod tests {
         }
         let photos: Vec<PhotoCandidates> =
             planes.iter().zip(&cands).map(|(p, c)| PhotoCandidates { plane: *p, candidates: c }).collect();
-        let choices = choose(&cam, &photos, 12.0, 3).expect("seven photos agree");
+        let choices = choose(&cam, &photos, &prior(12.0), 3).expect("seven photos agree");
         for (i, ch) in choices.iter().enumerate() {
             match (i, ch) {
                 (5, Choice::Ambiguous { .. }) => {}
@@ -305,7 +342,7 @@ mod tests {
                 .collect();
             let photos: Vec<PhotoCandidates> =
                 planes.iter().zip(&cands).map(|(p, c)| PhotoCandidates { plane: *p, candidates: c }).collect();
-            choose(&cam, &photos, 12.0, 3).expect("six photos agree")
+            choose(&cam, &photos, &prior(12.0), 3).expect("six photos agree")
         };
         for (moved, want_strong) in [(false, 0), (true, 3)] {
             let choices = run(moved);
@@ -314,6 +351,37 @@ mod tests {
             let none = choices[6..].iter().filter(|c| matches!(c, Choice::None)).count();
             assert_eq!((on_line, strong, none), (6, want_strong, 3 - want_strong), "moved {moved}: {choices:?}");
         }
+    }
+
+    /// Three photos' dots on the laser, and in three other photos bright blobs that happen to
+    /// line up on a line starting half a metre below the camera: as many photos, more colour
+    /// evidence. Only the rig's baseline tells them apart.
+    #[test]
+    fn a_chance_line_the_rig_cannot_hold_loses_to_the_dots() {
+        let cam = camera();
+        let laser = LaserLine::from_point_direction(Vec3::new(0.1, -0.05, 0.0), Vec3::new(-0.02, 0.01, 1.0)).unwrap();
+        let chance = LaserLine::from_point_direction(Vec3::new(-0.1, 0.5, 0.0), Vec3::new(0.06, -0.1, 1.0)).unwrap();
+        assert!(chance.baseline_m() > 0.5);
+        let planes: Vec<Plane> = (0..6)
+            .map(|i| Plane::through(Vec3::new(0.0, 0.0, 0.6 + 0.6 * i as f64), Vec3::new(0.0, 0.0, -1.0)))
+            .collect();
+        let cands: Vec<Vec<DotCandidate>> = planes
+            .iter()
+            .enumerate()
+            .map(|(i, pl)| {
+                let (line, score) = if i % 2 == 0 { (&laser, 10.0) } else { (&chance, 100.0) };
+                vec![candidate(cam.project(&line.hit(pl).unwrap()).unwrap(), score)]
+            })
+            .collect();
+        let photos: Vec<PhotoCandidates> =
+            planes.iter().zip(&cands).map(|(p, c)| PhotoCandidates { plane: *p, candidates: c }).collect();
+        let on_line = |prior: &LinePrior| -> Vec<usize> {
+            let choices = choose(&cam, &photos, prior, 3).expect("three photos agree");
+            (0..6).filter(|&i| matches!(choices[i], Choice::OnLine { .. })).collect()
+        };
+        assert_eq!(on_line(&prior(12.0)), vec![0, 2, 4]);
+        let any_baseline = LinePrior { gate_px: 12.0, baseline_range_m: (0.0, f64::INFINITY) };
+        assert_eq!(on_line(&any_baseline), vec![1, 3, 5], "without the rig's baseline the chance line wins");
     }
 
     #[test]
@@ -328,6 +396,6 @@ mod tests {
         ];
         let photos: Vec<PhotoCandidates> =
             planes.iter().zip(&cands).map(|(p, c)| PhotoCandidates { plane: *p, candidates: c }).collect();
-        assert!(choose(&cam, &photos, 8.0, 3).is_none());
+        assert!(choose(&cam, &photos, &prior(8.0), 3).is_none());
     }
 }

@@ -395,8 +395,11 @@ fn choose_jointly(job: &LaserJob, results: &mut [PhotoResult]) {
             PhotoCandidates { plane: e.pose.plane(), candidates: &e.found }
         })
         .collect();
-    let gate_px = 3.0 * job.gates.max_dot_offset_px;
-    let Some(choices) = consensus::choose(&job.camera, &photos, gate_px, job.gates.min_photos) else {
+    let prior = consensus::LinePrior {
+        gate_px: 3.0 * job.gates.max_dot_offset_px,
+        baseline_range_m: job.gates.baseline_range_m,
+    };
+    let Some(choices) = consensus::choose(&job.camera, &photos, &prior, job.gates.min_photos) else {
         return;
     };
     for (&i, choice) in detected.iter().zip(choices) {
