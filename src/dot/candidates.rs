@@ -72,6 +72,10 @@ pub struct SearchRegion {
     pub polygon: Vec<Vec2>,
     /// Optional band around the predicted laser image: a polyline and a half-width in px.
     pub band: Option<(Vec<Vec2>, f64)>,
+    /// A checkerboard's squares as image quads (corners in order around each), when known:
+    /// a pixel's background is then its own square's level, not a window's mean over black
+    /// and white squares ([`board_background`]).
+    pub squares: Vec<[Vec2; 4]>,
 }
 
 /// One dot-like blob.
@@ -205,7 +209,7 @@ pub fn find_dot_candidates(
     let Some(roi) = region_of_interest(img, &region.polygon) else {
         return Vec::new();
     };
-    let mut maps = RoiMaps::new(img, roi, params);
+    let mut maps = RoiMaps::new(img, roi, params, &region.squares);
     let mut candidates = Vec::new();
     let mut next = 1u32;
     for start in 0..roi.w * roi.h {
@@ -289,11 +293,12 @@ pub(super) struct RoiMaps {
 }
 
 impl RoiMaps {
-    fn new(img: &ColourView, roi: Roi, params: &DotDetectorParams) -> RoiMaps {
+    fn new(img: &ColourView, roi: Roi, params: &DotDetectorParams, squares: &[[Vec2; 4]]) -> RoiMaps {
         let weights = params.colour.matched_weights(scene_samples(img, roi), SCENE_NOISE_LEVELS);
         let lit = lit_channels(&params.colour);
         let (g, saturated) = laser_contrast(img, roi, weights, lit);
-        let excess = minus_local_background(&g, roi, params.background_radius_px);
+        let mut excess = minus_local_background(&g, roi, params.background_radius_px);
+        board_background(&g, roi, squares, &mut excess);
         let sigma = robust_noise(&excess);
         let threshold = (params.threshold_sigma * sigma).max(params.min_excess_levels) as f32;
         RoiMaps { roi, excess, saturated, label: vec![0u32; roi.w * roi.h], sigma, threshold, weights, lit }
@@ -393,6 +398,78 @@ fn minus_local_background(g: &[f32], roi: Roi, radius: usize) -> Vec<f32> {
     excess
 }
 
+/// Each square's share of its side by which its quad is grown for [`board_background`]: a
+/// pixel this near a brighter square is measured against that square, so the blurred
+/// edge between squares is no ribbon of excess on the dark side.
+const SQUARE_EDGE_SHARE: f64 = 0.12;
+
+/// Replaces the excess of every pixel on a board's square by its contrast over that
+/// square's own level (the median of the square's middle), or over a brighter neighbour's
+/// within [`SQUARE_EDGE_SHARE`] of its edge. A window's mean over black and white squares
+/// is neither: in green water, where the squares' contrast lies along a green laser's
+/// colour, it made the map's noise 24 levels and the threshold 120, over a dot of 71
+/// (tuning calibration seed 14).
+fn board_background(g: &[f32], roi: Roi, squares: &[[Vec2; 4]], excess: &mut [f32]) {
+    if squares.is_empty() {
+        return;
+    }
+    let mut level = vec![f32::NEG_INFINITY; roi.w * roi.h];
+    for quad in squares {
+        let Some(own) = square_level(g, roi, quad) else { continue };
+        let grown = scaled_quad(quad, 1.0 + 2.0 * SQUARE_EDGE_SHARE);
+        for_pixels_in(roi, &grown, |i| level[i] = level[i].max(own));
+    }
+    for (e, (&l, &v)) in excess.iter_mut().zip(level.iter().zip(g)) {
+        if l.is_finite() {
+            *e = v - l;
+        }
+    }
+}
+
+/// The median of `g` over the middle half (by side) of a square, sampled on a grid of at
+/// most 24 x 24; `None` when the square has no sample in the ROI.
+fn square_level(g: &[f32], roi: Roi, quad: &[Vec2; 4]) -> Option<f32> {
+    let middle = scaled_quad(quad, 0.5);
+    let side = (quad[0] - quad[2]).norm().max((quad[1] - quad[3]).norm());
+    let step = ((side / 24.0).floor() as usize).max(1);
+    let mut samples = Vec::new();
+    for_pixels_in(roi, &middle, |i| {
+        let (x, y) = (i % roi.w, i / roi.w);
+        if x % step == 0 && y % step == 0 {
+            samples.push(g[i]);
+        }
+    });
+    if samples.is_empty() {
+        return None;
+    }
+    let mid = samples.len() / 2;
+    Some(*samples.select_nth_unstable_by(mid, |a, b| a.total_cmp(b)).1)
+}
+
+/// A quad scaled by `factor` about its centroid.
+fn scaled_quad(quad: &[Vec2; 4], factor: f64) -> [Vec2; 4] {
+    let c = (quad[0] + quad[1] + quad[2] + quad[3]) / 4.0;
+    quad.map(|p| c + (p - c) * factor)
+}
+
+/// Calls `f` with the ROI index of every ROI pixel inside the convex quad.
+fn for_pixels_in(roi: Roi, quad: &[Vec2; 4], mut f: impl FnMut(usize)) {
+    let minx = quad.iter().map(|p| p.x).fold(f64::INFINITY, f64::min) - roi.x0 as f64;
+    let maxx = quad.iter().map(|p| p.x).fold(f64::NEG_INFINITY, f64::max) - roi.x0 as f64;
+    let miny = quad.iter().map(|p| p.y).fold(f64::INFINITY, f64::min) - roi.y0 as f64;
+    let maxy = quad.iter().map(|p| p.y).fold(f64::NEG_INFINITY, f64::max) - roi.y0 as f64;
+    let (x0, x1) = (minx.ceil().max(0.0) as usize, (maxx.floor().max(-1.0) + 1.0).min(roi.w as f64) as usize);
+    let (y0, y1) = (miny.ceil().max(0.0) as usize, (maxy.floor().max(-1.0) + 1.0).min(roi.h as f64) as usize);
+    let local = quad.map(|p| Vec2::new(p.x - roi.x0 as f64, p.y - roi.y0 as f64));
+    for y in y0..y1 {
+        for x in x0..x1 {
+            if point_in_convex_polygon(&local, Vec2::new(x as f64, y as f64)) {
+                f(y * roi.w + x);
+            }
+        }
+    }
+}
+
 /// Robust noise sigma of the excess: the median absolute deviation over a subsample, never
 /// below half a level.
 fn robust_noise(excess: &[f32]) -> f64 {
@@ -453,7 +530,11 @@ fn blob_candidate(
     if score.sigmas < params.min_colour_sigmas {
         return None;
     }
-    let centre = refine_centre(img, rough, radius_px).unwrap_or(rough);
+    // Centred on the dot's own size (at half its peak), not its halo's: against a board
+    // square's level a near dot's halo reaches the threshold 30 px out, and a disc that
+    // wide took in a bubble 42 px away and moved the centre 12 px (tuning seed 2).
+    let core_radius_px = (m.core_pixels as f64 / core::f64::consts::PI).sqrt();
+    let centre = refine_centre(img, rough, core_radius_px.max(1.5), params.colour.rgb).unwrap_or(rough);
     if let Some((line, half)) = &region.band {
         if distance_to_polyline(line, centre) > *half {
             return None;
@@ -464,7 +545,7 @@ fn blob_candidate(
         snr: m.snr,
         peak_green: m.peak,
         radius_px,
-        core_radius_px: (m.core_pixels as f64 / core::f64::consts::PI).sqrt(),
+        core_radius_px,
         saturated_core: m.saturated_pixels > 0,
         saturated_px: m.saturated_pixels,
         colour_score: score.sigmas,
@@ -665,6 +746,47 @@ mod tests {
         assert!(dot.colour_angle_rad < 0.3, "{dot:?}");
     }
 
+    /// A board in green water, where the squares' contrast lies along a green laser's
+    /// colour: against a window's mean over black and white squares the map's noise hides
+    /// the dot; against its own square's level it stands out.
+    #[test]
+    fn a_dot_on_a_board_in_green_water_is_found_against_its_square() {
+        let (w, h, side) = (400usize, 300usize, 40usize);
+        let truth = Vec2::new(171.3, 128.6);
+        let mut data = vec![0u8; w * h * 3];
+        for y in 0..h {
+            for x in 0..w {
+                let white = ((x / side) + (y / side)) % 2 == 0;
+                let [r, g, b] = if white { [82.0, 141.0, 27.0] } else { [48.0, 70.0, 18.0] };
+                let d2 = (x as f64 - truth.x).powi(2) + (y as f64 - truth.y).powi(2);
+                let dot = 70.0 * (-d2 / (2.0 * 3.0f64.powi(2))).exp();
+                let noise = (((x * 31 + y * 17) % 7) as f64 - 3.0) * 0.8;
+                let i = (y * w + x) * 3;
+                data[i] = (r + 0.19 * dot + noise).clamp(0.0, 255.0) as u8;
+                data[i + 1] = (g + dot + noise).clamp(0.0, 255.0) as u8;
+                data[i + 2] = (b + 0.42 * dot + noise).clamp(0.0, 255.0) as u8;
+            }
+        }
+        let view = ColourView { width: w, height: h, stride: w * 3, order: ChannelOrder::Rgb, data: &data };
+        // Inner corners where four squares meet, 9 x 6, at multiples of the side.
+        let (cols, rows) = (9usize, 6usize);
+        let corners: Vec<Vec2> = (0..cols * rows)
+            .map(|k| Vec2::new((side * (1 + k % cols)) as f64, (side * (1 + k / cols)) as f64))
+            .collect();
+        let squares = crate::dot::on_target::board_squares(&corners, cols, rows);
+        assert_eq!(squares.len(), (cols + 1) * (rows + 1));
+        assert_eq!(squares[0][0], Vec2::new(0.0, 0.0), "the border squares are extrapolated");
+        let region = SearchRegion {
+            polygon: vec![Vec2::new(0.0, 0.0), Vec2::new(399.0, 0.0), Vec2::new(399.0, 279.0), Vec2::new(0.0, 279.0)],
+            band: None,
+            squares,
+        };
+        let c = find_dot_candidates(&view, &region, &DotDetectorParams::default(), 8);
+        let dot = c.iter().find(|c| (c.pixel - truth).norm() < 0.5);
+        assert!(dot.is_some(), "{c:?}");
+        assert_eq!(c.len(), 1, "no square edge or corner is a candidate: {c:?}");
+    }
+
     #[test]
     fn region_and_band_exclude_the_dot() {
         let truth = Vec2::new(61.3, 80.7);
@@ -679,13 +801,18 @@ mod tests {
                 Vec2::new(100.0, 149.0),
             ],
             band: None,
+            squares: Vec::new(),
         };
         assert!(find_dot_candidates(&view, &right_half, &p, 4).is_empty());
-        let band =
-            SearchRegion { polygon: vec![], band: Some((vec![Vec2::new(0.0, 10.0), Vec2::new(199.0, 10.0)], 20.0)) };
+        let band = SearchRegion {
+            band: Some((vec![Vec2::new(0.0, 10.0), Vec2::new(199.0, 10.0)], 20.0)),
+            ..Default::default()
+        };
         assert!(find_dot_candidates(&view, &band, &p, 4).is_empty());
-        let band =
-            SearchRegion { polygon: vec![], band: Some((vec![Vec2::new(0.0, 75.0), Vec2::new(199.0, 85.0)], 20.0)) };
+        let band = SearchRegion {
+            band: Some((vec![Vec2::new(0.0, 75.0), Vec2::new(199.0, 85.0)], 20.0)),
+            ..Default::default()
+        };
         let c = find_dot_candidates(&view, &band, &p, 4);
         assert_eq!(c.len(), 1);
         assert!((c[0].pixel - truth).norm() < 0.15, "{:?}", c[0].pixel);

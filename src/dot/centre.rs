@@ -37,24 +37,24 @@ pub(super) fn weighted_centre(maps: &RoiMaps, id: u32, (mnx, mxx, mny, mxy): Blo
 ///
 /// Under water, the board's colour in each channel is an affine function of its albedo
 /// (attenuated light plus backscatter veil), so across black and white squares green is an
-/// affine function of blue: `G = a + b B`. Fitted on a ring around the dot, that model
+/// affine function of blue or red: `G = a + b B` ([`Background`]). Fitted on a ring around the dot, that model
 /// predicts the background under the dot even where the dot straddles a square's edge,
 /// which a local mean cannot (it pulls the centre toward the white square by up to a
 /// pixel). The laser adds much more green than blue, so `G - (a + b B)` is the dot alone.
 /// The centroid is taken over a disc centred on the current estimate, three times, so the
 /// window is symmetric about the answer.
-pub(super) fn refine_centre(img: &ColourView, rough: Vec2, blob_radius_px: f64) -> Option<Vec2> {
+pub(super) fn refine_centre(img: &ColourView, rough: Vec2, blob_radius_px: f64, laser_rgb: [f64; 3]) -> Option<Vec2> {
     let r_in = blob_radius_px * 1.6 + 3.0;
     let ring = (r_in + 2.0, r_in + 6.0);
     let mut c = rough;
     for _ in 0..3 {
         let window = Window::around(img, c, ring.1)?;
-        let background = Background::fit(img, &window, c, ring)?;
+        let background = Background::fit(img, &window, c, ring, laser_rgb)?;
         let disc = DiscSignal::sum(img, &window, c, r_in, &background);
         let next = if disc.saturated.is_empty() {
             // A faint dot (nothing clipped) is found better by a matched filter than by a
             // thresholded centroid, whose few surviving pixels are at the noise's mercy.
-            matched_filter_peak(img, c, r_in, blob_radius_px, &|g, b| background.residual(g, b))?
+            matched_filter_peak(img, c, r_in, blob_radius_px, &|r, g, b| background.residual(r, g, b))?
         } else {
             disc.centroid_with_core(background.floor)?
         };
@@ -99,56 +99,93 @@ impl Window {
     }
 }
 
-/// The background model `G = offset + slope B` fitted on a ring, and a noise floor: twice
-/// the RMS of the ring's residuals.
+/// The background model `G = offset + slope X` fitted on a ring, where `X` is blue or red:
+/// the one that follows the ring best among those that leave at least half the laser's
+/// own green standing (the laser adds to `X` too, and `slope` times that is taken off).
+/// The squares' contrast shows in blue in clear water but barely in green water (blue 18
+/// -> 27 between squares where red goes 48 -> 82), where a slope on blue cannot follow an
+/// edge; a yellow-green laser adds red, where a slope on red would cancel the dot. A noise
+/// floor: twice the RMS of the ring's residuals.
 struct Background {
     offset: f64,
     slope: f64,
+    /// The regressor is red, not blue.
+    on_red: bool,
     floor: f64,
 }
 
+/// Share of the laser's green a background model must leave in its residual.
+const MIN_KEPT_SIGNAL: f64 = 0.5;
+
 impl Background {
-    /// Least squares on the ring `ring.0..=ring.1` px from `c` (unsaturated pixels only);
-    /// `None` for fewer than 12 of them.
-    fn fit(img: &ColourView, window: &Window, c: Vec2, (ring_a, ring_b): (f64, f64)) -> Option<Background> {
-        let (mut n, mut sb, mut sg, mut sbb, mut sbg) = (0f64, 0f64, 0f64, 0f64, 0f64);
+    /// Least squares on the ring `ring.0..=ring.1` px from `c` (unclipped pixels only), for
+    /// a laser of colour `laser_rgb`; `None` for fewer than 12 of them.
+    fn fit(
+        img: &ColourView,
+        window: &Window,
+        c: Vec2,
+        (ring_a, ring_b): (f64, f64),
+        laser_rgb: [f64; 3],
+    ) -> Option<Background> {
+        let mut ring = Vec::new();
         for (x, y, d) in window.pixels(c) {
             if d < ring_a || d > ring_b {
                 continue;
             }
-            let (_, g, b) = img.rgb(x as usize, y as usize);
-            if g >= CLIPPED || b >= CLIPPED {
+            let (r, g, b) = img.rgb(x as usize, y as usize);
+            if g >= CLIPPED || b >= CLIPPED || r >= CLIPPED {
                 continue;
             }
-            let (g, b) = (g as f64, b as f64);
-            n += 1.0;
-            sb += b;
-            sg += g;
-            sbb += b * b;
-            sbg += b * g;
+            ring.push([r as f64, g as f64, b as f64]);
         }
-        if n < 12.0 {
+        if ring.len() < 12 {
             return None;
         }
-        let var_b = sbb / n - (sb / n).powi(2);
-        // A uniform ring gives no slope: fall back to a constant background.
-        let slope = if var_b > 4.0 { ((sbg / n - sb / n * sg / n) / var_b).clamp(0.0, 3.0) } else { 0.0 };
-        let offset = sg / n - slope * sb / n;
-        let mut model = Background { offset, slope, floor: 0.0 };
-        let mut ss = 0.0;
-        for (x, y, d) in window.pixels(c) {
-            if d >= ring_a && d <= ring_b {
-                let (_, g, b) = img.rgb(x as usize, y as usize);
-                ss += model.residual(g as f64, b as f64).powi(2);
+        let fit_on = |on_red: bool| -> (Background, f64) {
+            let k = if on_red { 0 } else { 2 };
+            let n = ring.len() as f64;
+            let (mut sx, mut sg, mut sxx, mut sxg) = (0f64, 0f64, 0f64, 0f64);
+            for p in &ring {
+                sx += p[k];
+                sg += p[1];
+                sxx += p[k] * p[k];
+                sxg += p[k] * p[1];
             }
-        }
-        model.floor = 2.0 * (ss / n).sqrt();
-        Some(model)
+            let var_x = sxx / n - (sx / n).powi(2);
+            // A uniform ring gives no slope: fall back to a constant background.
+            let slope = if var_x > 4.0 { ((sxg / n - sx / n * sg / n) / var_x).clamp(0.0, 3.0) } else { 0.0 };
+            let offset = sg / n - slope * sx / n;
+            let mut model = Background { offset, slope, on_red, floor: 0.0 };
+            let ss: f64 = ring.iter().map(|p| model.residual(p[0], p[1], p[2]).powi(2)).sum();
+            model.floor = 2.0 * (ss / n).sqrt();
+            let kept = 1.0 - slope * laser_rgb[k] / laser_rgb[1].max(1e-6);
+            (model, kept)
+        };
+        let (blue, red) = (fit_on(false), fit_on(true));
+        let choice = match (blue.1 >= MIN_KEPT_SIGNAL, red.1 >= MIN_KEPT_SIGNAL) {
+            (true, true) => {
+                if red.0.floor < blue.0.floor {
+                    red
+                } else {
+                    blue
+                }
+            }
+            (true, false) => blue,
+            (false, true) => red,
+            (false, false) => {
+                if red.1 > blue.1 {
+                    red
+                } else {
+                    blue
+                }
+            }
+        };
+        Some(choice.0)
     }
 
-    /// The dot's signal: green above what the background model predicts from blue.
-    fn residual(&self, g: f64, b: f64) -> f64 {
-        g - (self.offset + self.slope * b)
+    /// The dot's signal: green above what the background model predicts.
+    fn residual(&self, r: f64, g: f64, b: f64) -> f64 {
+        g - (self.offset + self.slope * if self.on_red { r } else { b })
     }
 }
 
@@ -169,12 +206,12 @@ impl DiscSignal {
             if d > r_in {
                 continue;
             }
-            let (_, g, b) = img.rgb(x as usize, y as usize);
+            let (r, g, b) = img.rgb(x as usize, y as usize);
             if g >= CLIPPED {
                 disc.saturated.push((x as f64, y as f64));
                 continue;
             }
-            let e = background.residual(g as f64, b as f64);
+            let e = background.residual(r as f64, g as f64, b as f64);
             disc.peak = disc.peak.max(e);
             let w = e - background.floor;
             if w > 0.0 {
@@ -207,7 +244,7 @@ fn matched_filter_peak(
     c: Vec2,
     reach: f64,
     blob_radius_px: f64,
-    signal: &dyn Fn(f64, f64) -> f64,
+    signal: &dyn Fn(f64, f64, f64) -> f64,
 ) -> Option<Vec2> {
     let sigma = (0.7 * blob_radius_px).clamp(1.0, 4.0);
     let k = (3.0 * sigma).ceil() as i64;
@@ -220,8 +257,8 @@ fn matched_filter_peak(
     let mut e = vec![0f64; n * n];
     for y in 0..n {
         for x in 0..n {
-            let (_, g, b) = img.rgb((cx - half) as usize + x, (cy - half) as usize + y);
-            e[y * n + x] = signal(g as f64, b as f64);
+            let (r, g, b) = img.rgb((cx - half) as usize + x, (cy - half) as usize + y);
+            e[y * n + x] = signal(r as f64, g as f64, b as f64);
         }
     }
     let kernel: Vec<f64> = (-k..=k).map(|i| (-0.5 * (i as f64 / sigma).powi(2)).exp()).collect();

@@ -30,7 +30,7 @@ pub fn find_near(
             predicted - offset + Vec2::new(a.cos(), a.sin()) * radius_px / (std::f64::consts::PI / 8.0).cos()
         })
         .collect();
-    let region = SearchRegion { polygon, band: Some((vec![predicted - offset], radius_px)) };
+    let region = SearchRegion { polygon, band: Some((vec![predicted - offset], radius_px)), squares: Vec::new() };
     on_target::find(surface, view, &region, &detector.sensitive(), 1).into_iter().next().map(|mut c| {
         c.pixel += offset;
         c

@@ -388,7 +388,7 @@ fn search_pieces(
         let sag = piece.iter().map(|p| ((p - a).dot(&across)).abs()).fold(0.0, f64::max);
         let (s, t) = (along * pad, across * (pad + sag));
         let polygon = vec![a - s - t, b + s - t, b + s + t, a - s + t];
-        let region = SearchRegion { polygon, band: Some((line.to_vec(), hw)) };
+        let region = SearchRegion { polygon, band: Some((line.to_vec(), hw)), squares: Vec::new() };
         for c in find_dot_candidates(img, &region, params, PIECE_CANDIDATES) {
             // Neighbouring pieces overlap: one blob, one candidate.
             if !found.iter().any(|f| (f.pixel - c.pixel).norm() < 2.0 * f.radius_px.max(c.radius_px).max(2.0)) {

@@ -38,6 +38,38 @@ pub fn find(
     }
 }
 
+/// A checkerboard's squares as image quads, from its inner corners (`cols` x `rows`,
+/// row-major) and one extrapolated row or column beyond each side for the border squares.
+/// Each quad's corners go round it. Empty unless the corners make the full grid.
+pub fn board_squares(corners: &[Vec2], cols: usize, rows: usize) -> Vec<[Vec2; 4]> {
+    if cols < 2 || rows < 2 || corners.len() != cols * rows {
+        return Vec::new();
+    }
+    // Grid with a ring of extrapolated corners: index (i, j) for i in -1..=cols, j in -1..=rows.
+    let at = |i: isize, j: isize| -> Vec2 {
+        let clamp = |v: isize, n: usize| v.clamp(0, n as isize - 1);
+        let (ci, cj) = (clamp(i, cols), clamp(j, rows));
+        let c = |i: isize, j: isize| corners[j as usize * cols + i as usize];
+        let mut p = c(ci, cj);
+        if i != ci {
+            let inward = if i < 0 { ci + 1 } else { ci - 1 };
+            p += c(ci, cj) - c(inward, cj);
+        }
+        if j != cj {
+            let inward = if j < 0 { cj + 1 } else { cj - 1 };
+            p += c(ci, cj) - c(ci, inward);
+        }
+        p
+    };
+    let mut squares = Vec::with_capacity((cols + 1) * (rows + 1));
+    for j in -1..rows as isize {
+        for i in -1..cols as isize {
+            squares.push([at(i, j), at(i + 1, j), at(i + 1, j + 1), at(i, j + 1)]);
+        }
+    }
+    squares
+}
+
 /// On a slate, dot candidates need this many times the detector's usual SNR: measured on
 /// the synthetic slate scenes, scenery blobs reach SNR 16 and the dots score 56 or more.
 pub const SLATE_SNR_FACTOR: f64 = 2.5;

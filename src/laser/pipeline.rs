@@ -15,7 +15,7 @@ use crate::dot::candidates::{ChannelOrder, ColourView, DotCandidate, DotDetector
 use crate::dot::colour::LaserColourModel;
 use crate::dot::near_prediction;
 use crate::dot::on_line::too_large;
-use crate::dot::on_target::{detected_sigma_px, hand_candidate, Surface, HAND_DOT_SIGMA_PX};
+use crate::dot::on_target::{self, detected_sigma_px, hand_candidate, Surface, HAND_DOT_SIGMA_PX};
 use crate::laser::fit::{self, DotObservation, FitError, Gates, LaserFit, Method};
 use crate::reason::Reason;
 use crate::vision::{self, EncodedPhoto, Photo, TargetPose};
@@ -226,7 +226,13 @@ fn examine(job: &LaserJob, path: &Path, budget: &CropBudget) -> Result<PhotoResu
     let (candidates, dot_source) = match job.hand_dots.get(path) {
         Some(px) => (vec![hand_candidate(px)], DotSource::Hand),
         None => {
-            let region = SearchRegion { polygon: outline.clone(), band: None };
+            let squares = match &job.target {
+                Target::Checkerboard(b) => {
+                    on_target::board_squares(&corners, b.inner_cols as usize, b.inner_rows as usize)
+                }
+                _ => Vec::new(),
+            };
+            let region = SearchRegion { polygon: outline.clone(), band: None, squares };
             // Blobs no dot could be at the target's distance are dropped before the cap, so
             // a crowd of them cannot push the dot out.
             let plane = pose.plane();
