@@ -452,20 +452,32 @@ fn scaled_quad(quad: &[Vec2; 4], factor: f64) -> [Vec2; 4] {
     quad.map(|p| c + (p - c) * factor)
 }
 
-/// Calls `f` with the ROI index of every ROI pixel inside the convex quad.
+/// Calls `f` with the ROI index of every ROI pixel inside the convex quad, row by row: a
+/// row crosses a convex quad in one span, found from its edges.
 fn for_pixels_in(roi: Roi, quad: &[Vec2; 4], mut f: impl FnMut(usize)) {
-    let minx = quad.iter().map(|p| p.x).fold(f64::INFINITY, f64::min) - roi.x0 as f64;
-    let maxx = quad.iter().map(|p| p.x).fold(f64::NEG_INFINITY, f64::max) - roi.x0 as f64;
-    let miny = quad.iter().map(|p| p.y).fold(f64::INFINITY, f64::min) - roi.y0 as f64;
-    let maxy = quad.iter().map(|p| p.y).fold(f64::NEG_INFINITY, f64::max) - roi.y0 as f64;
-    let (x0, x1) = (minx.ceil().max(0.0) as usize, (maxx.floor().max(-1.0) + 1.0).min(roi.w as f64) as usize);
-    let (y0, y1) = (miny.ceil().max(0.0) as usize, (maxy.floor().max(-1.0) + 1.0).min(roi.h as f64) as usize);
     let local = quad.map(|p| Vec2::new(p.x - roi.x0 as f64, p.y - roi.y0 as f64));
+    let miny = local.iter().map(|p| p.y).fold(f64::INFINITY, f64::min);
+    let maxy = local.iter().map(|p| p.y).fold(f64::NEG_INFINITY, f64::max);
+    let (y0, y1) = (miny.ceil().max(0.0) as usize, (maxy.floor() + 1.0).clamp(0.0, roi.h as f64) as usize);
     for y in y0..y1 {
-        for x in x0..x1 {
-            if point_in_convex_polygon(&local, Vec2::new(x as f64, y as f64)) {
-                f(y * roi.w + x);
+        let yf = y as f64;
+        let (mut lo, mut hi) = (f64::INFINITY, f64::NEG_INFINITY);
+        for k in 0..4 {
+            let (a, b) = (local[k], local[(k + 1) % 4]);
+            if (a.y <= yf && yf <= b.y) || (b.y <= yf && yf <= a.y) {
+                let x =
+                    if (b.y - a.y).abs() < 1e-12 { a.x.min(b.x) } else { a.x + (yf - a.y) * (b.x - a.x) / (b.y - a.y) };
+                let x2 = if (b.y - a.y).abs() < 1e-12 { a.x.max(b.x) } else { x };
+                lo = lo.min(x);
+                hi = hi.max(x2);
             }
+        }
+        if lo > hi {
+            continue;
+        }
+        let (x0, x1) = (lo.ceil().max(0.0) as usize, (hi.floor() + 1.0).clamp(0.0, roi.w as f64) as usize);
+        for x in x0..x1 {
+            f(y * roi.w + x);
         }
     }
 }
