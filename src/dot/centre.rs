@@ -37,10 +37,11 @@ pub(super) fn weighted_centre(maps: &RoiMaps, id: u32, (mnx, mxx, mny, mxy): Blo
 ///
 /// Under water, the board's colour in each channel is an affine function of its albedo
 /// (attenuated light plus backscatter veil), so across black and white squares green is an
-/// affine function of blue or red: `G = a + b B` ([`Background`]). Fitted on a ring around the dot, that model
-/// predicts the background under the dot even where the dot straddles a square's edge,
-/// which a local mean cannot (it pulls the centre toward the white square by up to a
-/// pixel). The laser adds much more green than blue, so `G - (a + b B)` is the dot alone.
+/// affine function of blue or of red: `G = a + b X` ([`Background`]). Fitted on a ring
+/// around the dot, that model predicts the background under the dot even where the dot
+/// straddles a square's edge, which a local mean cannot (it pulls the centre toward the
+/// white square by up to a pixel). The laser adds much more green than `b` times what it
+/// adds to `X`, so `G - (a + b X)` is the dot alone.
 /// The centroid is taken over a disc centred on the current estimate, three times, so the
 /// window is symmetric about the answer.
 pub(super) fn refine_centre(img: &ColourView, rough: Vec2, blob_radius_px: f64, laser_rgb: [f64; 3]) -> Option<Vec2> {
