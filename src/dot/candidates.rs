@@ -465,11 +465,15 @@ fn for_pixels_in(roi: Roi, quad: &[Vec2; 4], mut f: impl FnMut(usize)) {
         for k in 0..4 {
             let (a, b) = (local[k], local[(k + 1) % 4]);
             if (a.y <= yf && yf <= b.y) || (b.y <= yf && yf <= a.y) {
-                let x =
-                    if (b.y - a.y).abs() < 1e-12 { a.x.min(b.x) } else { a.x + (yf - a.y) * (b.x - a.x) / (b.y - a.y) };
-                let x2 = if (b.y - a.y).abs() < 1e-12 { a.x.max(b.x) } else { x };
-                lo = lo.min(x);
-                hi = hi.max(x2);
+                // An edge lying along the row covers its whole length.
+                let (x0, x1) = if (b.y - a.y).abs() < 1e-12 {
+                    (a.x.min(b.x), a.x.max(b.x))
+                } else {
+                    let x = a.x + (yf - a.y) * (b.x - a.x) / (b.y - a.y);
+                    (x, x)
+                };
+                lo = lo.min(x0);
+                hi = hi.max(x1);
             }
         }
         if lo > hi {

@@ -310,26 +310,23 @@ fn reseat_stray_corners(
     pose: &TargetPose,
     corners: &[Vec2],
 ) -> Option<Vec<Vec2>> {
-    let stray = |pose: &TargetPose| -> Option<Vec<bool>> {
-        object
-            .iter()
-            .zip(corners)
-            .map(|(o, c)| camera.project(&pose.to_camera(o)).map(|q| (q - c).norm() > STRAY_CORNER_PX))
-            .collect()
-    };
-    let first = stray(pose)?;
-    let n = first.iter().filter(|&&s| s).count();
+    let stray: Vec<bool> = object
+        .iter()
+        .zip(corners)
+        .map(|(o, c)| camera.project(&pose.to_camera(o)).map(|q| (q - c).norm() > STRAY_CORNER_PX))
+        .collect::<Option<_>>()?;
+    let n = stray.iter().filter(|&&s| s).count();
     if n == 0 || n > MAX_STRAY_CORNERS {
         return None;
     }
     // The pose again without the strays, which pulled it.
     let (kept_object, kept_corners): (Vec<Vec3>, Vec<Vec2>) =
-        object.iter().zip(corners).zip(&first).filter(|(_, &s)| !s).map(|((o, c), _)| (*o, *c)).unzip();
+        object.iter().zip(corners).zip(&stray).filter(|(_, &s)| !s).map(|((o, c), _)| (*o, *c)).unzip();
     let clean = vision::solve_pose(camera, &kept_object, &kept_corners).ok()??;
     object
         .iter()
         .zip(corners)
-        .zip(&first)
+        .zip(&stray)
         .map(|((o, c), &s)| if s { camera.project(&clean.to_camera(o)) } else { Some(*c) })
         .collect()
 }
