@@ -301,6 +301,8 @@ impl RoiMaps {
         board_background(&g, roi, squares, &mut excess);
         let sigma = robust_noise(&excess);
         let threshold = (params.threshold_sigma * sigma).max(params.min_excess_levels) as f32;
+        // Freed before the labels are made: on a near board's ROI each map is tens of MB.
+        drop(g);
         RoiMaps { roi, excess, saturated, label: vec![0u32; roi.w * roi.h], sigma, threshold, weights, lit }
     }
 
@@ -369,30 +371,35 @@ fn laser_contrast(img: &ColourView, roi: Roi, weights: [f64; 3], lit: [bool; 3])
     (g, saturated)
 }
 
-/// `g` less its local background, the box mean within `radius` px by an integral image. The
-/// window is much larger than a dot, so a dot barely lifts its own background.
+/// `g` less its local background, the box mean within `radius` px. The window is much
+/// larger than a dot, so a dot barely lifts its own background. The sums slide down the ROI
+/// a row at a time (one running sum per column) rather than coming from an integral image:
+/// a near board's ROI is up to 7 Mpx, and an integral image's 8 bytes a pixel made this map
+/// the largest allocation of a run (issue 17's memory).
 fn minus_local_background(g: &[f32], roi: Roi, radius: usize) -> Vec<f32> {
-    let (w, h) = (roi.w, roi.h);
-    let mut integral = vec![0f64; (w + 1) * (h + 1)];
-    for y in 0..h {
-        let mut row = 0f64;
-        for x in 0..w {
-            row += g[y * w + x] as f64;
-            integral[(y + 1) * (w + 1) + x + 1] = integral[y * (w + 1) + x + 1] + row;
-        }
-    }
-    let r = radius;
+    let (w, h, r) = (roi.w, roi.h, radius);
+    let mut columns = vec![0f64; w];
+    let mut prefix = vec![0f64; w + 1];
     let mut excess = vec![0f32; w * h];
+    // Rows `top..bottom` are in `columns`.
+    let (mut top, mut bottom) = (0usize, 0usize);
     for y in 0..h {
-        let ya = y.saturating_sub(r);
-        let yb = (y + r + 1).min(h);
+        let (ya, yb) = (y.saturating_sub(r), (y + r + 1).min(h));
+        for row in bottom..yb {
+            columns.iter_mut().zip(&g[row * w..(row + 1) * w]).for_each(|(c, &v)| *c += v as f64);
+        }
+        for row in top..ya {
+            columns.iter_mut().zip(&g[row * w..(row + 1) * w]).for_each(|(c, &v)| *c -= v as f64);
+        }
+        (top, bottom) = (ya, yb);
         for x in 0..w {
-            let xa = x.saturating_sub(r);
-            let xb = (x + r + 1).min(w);
-            let sum = integral[yb * (w + 1) + xb] - integral[ya * (w + 1) + xb] - integral[yb * (w + 1) + xa]
-                + integral[ya * (w + 1) + xa];
-            let n = ((yb - ya) * (xb - xa)) as f64;
-            excess[y * w + x] = g[y * w + x] - (sum / n) as f32;
+            prefix[x + 1] = prefix[x] + columns[x];
+        }
+        let rows = (yb - ya) as f64;
+        for x in 0..w {
+            let (xa, xb) = (x.saturating_sub(r), (x + r + 1).min(w));
+            let mean = (prefix[xb] - prefix[xa]) / (rows * (xb - xa) as f64);
+            excess[y * w + x] = g[y * w + x] - mean as f32;
         }
     }
     excess
@@ -413,16 +420,18 @@ fn board_background(g: &[f32], roi: Roi, squares: &[[Vec2; 4]], excess: &mut [f3
     if squares.is_empty() {
         return;
     }
-    let mut level = vec![f32::NEG_INFINITY; roi.w * roi.h];
-    for quad in squares {
-        let Some(own) = square_level(g, roi, quad) else { continue };
-        let grown = scaled_quad(quad, 1.0 + 2.0 * SQUARE_EDGE_SHARE);
-        for_pixels_in(roi, &grown, |i| level[i] = level[i].max(own));
+    // The highest level over a pixel is its lowest contrast, so the pixels the squares
+    // cover are first cleared to +inf and then take the least contrast over each square:
+    // no level map beside `excess` (4 bytes a pixel on a near board's ROI).
+    let levels: Vec<([Vec2; 4], f32)> = squares
+        .iter()
+        .filter_map(|quad| Some((scaled_quad(quad, 1.0 + 2.0 * SQUARE_EDGE_SHARE), square_level(g, roi, quad)?)))
+        .collect();
+    for (grown, _) in &levels {
+        for_pixels_in(roi, grown, |i| excess[i] = f32::INFINITY);
     }
-    for (e, (&l, &v)) in excess.iter_mut().zip(level.iter().zip(g)) {
-        if l.is_finite() {
-            *e = v - l;
-        }
+    for (grown, own) in &levels {
+        for_pixels_in(roi, grown, |i| excess[i] = excess[i].min(g[i] - own));
     }
 }
 
