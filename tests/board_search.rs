@@ -142,9 +142,13 @@ fn far_boards_in_coastal_and_harbour_water_are_found() {
             found += 1;
         }
     }
-    // Seeds 11-14 give six such photos (all coastal), none of which the quad steps find;
-    // the equalised sector step finds five, the plain one the sixth (set14_08).
+    // Seeds 11-14 give six such photos (all coastal), none of which the quad steps find
+    // on the whole image. The quads on a crop located by the corners' saddle points find
+    // all six (before that step, the equalised sector step found five, the plain one the
+    // sixth, set14_08, at 0.1-0.2 s a photo).
     assert_eq!(found, photos.len(), "{found} of {} far boards found", photos.len());
+    let located = results.iter().flatten().filter(|r| matches!(r.step, SearchStep::Located { .. })).count();
+    assert!(located >= 5, "only {located} of {} far boards found on a located crop", photos.len());
 }
 
 #[test]
@@ -160,6 +164,9 @@ fn the_search_plan_is_bounded_for_every_photo_size() {
         for step in &plan {
             match *step {
                 SearchStep::Sectors { factor, .. } => assert!(width / factor <= 1100, "{width}: {step:?}"),
+                // Its crop is bounded where it is cut (`find_checkerboard`); the saddles are
+                // found on the image the sector steps run on.
+                SearchStep::Located { factor } => assert!(width / (2 * factor) <= 1100, "{width}: {step:?}"),
                 SearchStep::Quads { factor, normalised } => {
                     assert!(width / factor >= 400 || factor == 1, "{width}: {step:?}");
                     assert!(width / factor <= if normalised { 640 } else { 1100 }, "{width}: {step:?}");
@@ -177,6 +184,7 @@ fn the_search_plan_is_bounded_for_every_photo_size() {
         [
             SearchStep::Quads { factor: 8, normalised: true },
             SearchStep::Quads { factor: 4, normalised: false },
+            SearchStep::Located { factor: 2 },
             SearchStep::Sectors { factor: 4, normalised: true },
             SearchStep::Sectors { factor: 4, normalised: false },
         ]
