@@ -89,10 +89,12 @@ pub fn run() -> anyhow::Result<ExitCode> {
 /// glibc gives each thread that allocates its own heap arena, and memory freed there goes
 /// back to the system only from the top of the heap; with every photo's maps, crops and
 /// thumbnails freed in whichever worker made them, the arenas held a 300-photo `laser
-/// --report` at 328-363 MB peak over three runs, against 295-322 MB with two arenas, at the
-/// same speed (issue 17). The workers' allocations are few and large, so sharing an arena
-/// costs them no measurable lock contention. (The one `unsafe` in the crate: glibc reads
-/// its environment variable for this before `main`, too early to set it from here.)
+/// --report` at 305-340 MB peak over three runs, against 298-301 MB with two arenas
+/// (issue 17's limit is 330). The cost is the workers' contention on the shared arena:
+/// `laser` on 16 photos takes the same time, `measure --masks` on 100 photos 3.1-3.3 s
+/// instead of 2.9 s (system time 0.1 -> 0.5 s), still twice the 15 photos/s it must reach.
+/// (The one `unsafe` in the crate: glibc reads its environment variable for this before
+/// `main`, too early to set it from here.)
 #[allow(unsafe_code)]
 fn limit_allocator_arenas() {
     #[cfg(all(target_os = "linux", target_env = "gnu"))]
