@@ -2,8 +2,8 @@
 //! `--report` never reads or decodes a photo a second time. A command that writes a
 //! report holds a [`Keeping`] over its run; while one is held, every photo decoded to full
 //! resolution leaves its thumbnail here, and the report takes it back out by the photo's
-//! path. Thumbnails wait as JPEG (about 25 kB at 320 px wide, a tenth of the pixels), so a
-//! 300-photo report holds a few MB of them, not 70.
+//! path. The first 8 MB of them wait as pixels; the rest as JPEG (about 25 kB at 320 px
+//! wide, a tenth of the pixels), so a 300-photo report holds a few MB of them, not 70.
 
 use image::RgbImage;
 use std::collections::HashMap;
@@ -17,12 +17,17 @@ pub struct Kept {
     pub full_height_px: u32,
 }
 
-/// A thumbnail waiting for its report.
-struct Packed {
-    jpeg: Vec<u8>,
-    full_width_px: u32,
-    full_height_px: u32,
+/// A thumbnail waiting for its report: as made while the run's unpacked ones fit in
+/// [`UNPACKED_BYTES`], as JPEG after.
+enum Packed {
+    Pixels(Kept),
+    Jpeg { jpeg: Vec<u8>, full_width_px: u32, full_height_px: u32 },
 }
+
+/// What a run's thumbnails may hold unpacked, bytes: a dive's 10-40 photos (230 kB each at
+/// 320 px wide) wait as pixels, since packing one and unpacking it costs 2-3 ms, a tenth of
+/// what a report adds to a 16-photo `laser` run; a 300-photo run's later ones are packed.
+const UNPACKED_BYTES: usize = 8 << 20;
 
 /// Quality of the waiting JPEG: the report encodes the thumbnail again at 82, so this
 /// loses nothing that shows.
@@ -32,6 +37,8 @@ struct Store {
     width_px: u32,
     holders: usize,
     kept: HashMap<PathBuf, Packed>,
+    /// Bytes of the thumbnails kept as pixels.
+    unpacked_bytes: usize,
 }
 
 static STORE: Mutex<Option<Store>> = Mutex::new(None);
@@ -52,7 +59,7 @@ impl Keeping {
                 s.holders += 1;
                 s.width_px = s.width_px.max(width_px);
             }
-            None => *s = Some(Store { width_px, holders: 1, kept: HashMap::new() }),
+            None => *s = Some(Store { width_px, holders: 1, kept: HashMap::new(), unpacked_bytes: 0 }),
         }
         Keeping(())
     }
@@ -87,6 +94,17 @@ pub fn keep(photo: &Path, kept: Kept) {
     if wanted_width_px().is_none() {
         return;
     }
+    let bytes = kept.image.as_raw().len();
+    let kept = {
+        let mut s = store();
+        let Some(s) = s.as_mut() else { return };
+        if s.unpacked_bytes + bytes <= UNPACKED_BYTES {
+            s.unpacked_bytes += bytes;
+            s.kept.insert(photo.to_path_buf(), Packed::Pixels(kept));
+            return;
+        }
+        kept
+    };
     // Encoded on the caller's (pool) thread, outside the lock. A thumbnail that fails to
     // encode is only one the report reads again.
     let mut jpeg = Vec::new();
@@ -94,7 +112,7 @@ pub fn keep(photo: &Path, kept: Kept) {
     if encoder.encode_image(&kept.image).is_err() {
         return;
     }
-    let packed = Packed { jpeg, full_width_px: kept.full_width_px, full_height_px: kept.full_height_px };
+    let packed = Packed::Jpeg { jpeg, full_width_px: kept.full_width_px, full_height_px: kept.full_height_px };
     if let Some(s) = store().as_mut() {
         s.kept.insert(photo.to_path_buf(), packed);
     }
@@ -103,6 +121,11 @@ pub fn keep(photo: &Path, kept: Kept) {
 /// The thumbnail kept for `photo`, taken out of the store.
 pub fn take(photo: &Path) -> Option<Kept> {
     let packed = store().as_mut()?.kept.remove(photo)?;
-    let image = image::load_from_memory_with_format(&packed.jpeg, image::ImageFormat::Jpeg).ok()?.to_rgb8();
-    Some(Kept { image, full_width_px: packed.full_width_px, full_height_px: packed.full_height_px })
+    match packed {
+        Packed::Pixels(kept) => Some(kept),
+        Packed::Jpeg { jpeg, full_width_px, full_height_px } => {
+            let image = image::load_from_memory_with_format(&jpeg, image::ImageFormat::Jpeg).ok()?.to_rgb8();
+            Some(Kept { image, full_width_px, full_height_px })
+        }
+    }
 }
