@@ -28,13 +28,6 @@ fn lit_channels(colour: &LaserColourModel) -> [bool; 3] {
     colour.rgb.map(|c| c >= 0.5 * top)
 }
 
-/// Whether a channel the laser lights is clipped, or all three are.
-#[inline]
-fn core_clipped(lit: [bool; 3], (r, g, b): (i32, i32, i32)) -> bool {
-    let c = [r >= CLIPPED, g >= CLIPPED, b >= CLIPPED];
-    (c[0] && c[1] && c[2]) || (0..3).any(|k| lit[k] && c[k])
-}
-
 /// Channel order of an interleaved 8-bit 3-channel image.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum ChannelOrder {
@@ -288,22 +281,20 @@ pub(super) struct RoiMaps {
     pub(super) threshold: f32,
     /// The map's weights (R, G, B): the laser's colour matched against the ROI's own.
     pub(super) weights: [f64; 3],
-    /// The channels the laser lights ([`lit_channels`]).
-    pub(super) lit: [bool; 3],
 }
 
 impl RoiMaps {
     fn new(img: &ColourView, roi: Roi, params: &DotDetectorParams, squares: &[[Vec2; 4]]) -> RoiMaps {
         let weights = params.colour.matched_weights(scene_samples(img, roi), SCENE_NOISE_LEVELS);
         let lit = lit_channels(&params.colour);
-        let (g, saturated) = laser_contrast(img, roi, weights, lit);
+        let (g, saturated) = laser_contrast(img, roi, weights, lit, params.max_area_px);
         let mut excess = minus_local_background(&g, roi, params.background_radius_px);
         board_background(&g, roi, squares, &mut excess);
         let sigma = robust_noise(&excess);
         let threshold = (params.threshold_sigma * sigma).max(params.min_excess_levels) as f32;
         // Freed before the labels are made: on a near board's ROI each map is tens of MB.
         drop(g);
-        RoiMaps { roi, excess, saturated, label: vec![0u32; roi.w * roi.h], sigma, threshold, weights, lit }
+        RoiMaps { roi, excess, saturated, label: vec![0u32; roi.w * roi.h], sigma, threshold, weights }
     }
 
     /// Labels the blob grown from `start` as `id`: 8-connected pixels whose excess is above
@@ -353,22 +344,86 @@ fn scene_samples<'a>(img: &'a ColourView<'a>, roi: Roi) -> impl Iterator<Item = 
 
 /// The laser's contrast over the ROI: each pixel projected on the laser's colour with white
 /// removed (`weights`, [`LaserColourModel::matched_weights`]), and where a core clips
-/// ([`core_clipped`]).
-fn laser_contrast(img: &ColourView, roi: Roi, weights: [f64; 3], lit: [bool; 3]) -> (Vec<f32>, Vec<bool>) {
+/// ([`clip_bits`]) but the surface around it does not ([`clipped_cores`]).
+fn laser_contrast(
+    img: &ColourView,
+    roi: Roi,
+    weights: [f64; 3],
+    lit: [bool; 3],
+    max_area_px: usize,
+) -> (Vec<f32>, Vec<bool>) {
     let (w, h) = (roi.w, roi.h);
     let [wr, wg, wb] = weights.map(|v| v as f32);
     let mut g = vec![0f32; w * h];
-    let mut saturated = vec![false; w * h];
+    let mut clips = vec![0u8; w * h];
     for y in 0..h {
         for x in 0..w {
             let (r, gg, b) = img.rgb(roi.x0 + x, roi.y0 + y);
             g[y * w + x] = wr * r as f32 + wg * gg as f32 + wb * b as f32;
-            // A clipped lit channel shows no contrast however bright the dot is, so it
-            // counts as core.
-            saturated[y * w + x] = core_clipped(lit, (r, gg, b));
+            clips[y * w + x] = clip_bits(lit, (r, gg, b));
         }
     }
-    (g, saturated)
+    (g, clipped_cores(clips, roi, max_area_px))
+}
+
+/// Where a core may clip: bit `k` where lit channel `k` clips (a clipped lit channel shows
+/// no contrast however bright the dot is), bit 3 where all three clip.
+#[inline]
+fn clip_bits(lit: [bool; 3], (r, g, b): (i32, i32, i32)) -> u8 {
+    let c = [r >= CLIPPED, g >= CLIPPED, b >= CLIPPED];
+    let all = (c[0] && c[1] && c[2]) as u8;
+    (0..3).fold(all << 3, |m, k| m | (((lit[k] && c[k]) as u8) << k))
+}
+
+/// The pixels whose clipping is a core's: each clipping condition of `clips`
+/// ([`clip_bits`]) counts only over a connected region no larger than a dot
+/// (`max_area_px`). A surface clipped over a larger region is the background's: a white
+/// square near the camera's lamp in clear green water clips green and blue over 20 000 px
+/// and more, and every pixel of it counted as a dot's core merged the squares and the dot
+/// on them into one blob too large for a dot (tuning calibration seed 9, dots at 0.55-1.5
+/// m). There the dot shows in the channels that do not clip.
+fn clipped_cores(mut clips: Vec<u8>, roi: Roi, max_area_px: usize) -> Vec<bool> {
+    let (w, h) = (roi.w, roi.h);
+    let mut stack = Vec::new();
+    let mut region = Vec::new();
+    let present = clips.iter().fold(0u8, |a, &c| a | c);
+    for bit in (0..4u8).filter(|b| present & (1 << b) != 0) {
+        let (on, seen) = (1u8 << bit, 0x10u8 << bit);
+        for start in 0..w * h {
+            if clips[start] & (on | seen) != on {
+                continue;
+            }
+            clips[start] |= seen;
+            stack.push(start);
+            region.clear();
+            while let Some(i) = stack.pop() {
+                region.push(i as u32);
+                for (nx, ny) in neighbours8(i % w, i / w, w, h) {
+                    let j = ny * w + nx;
+                    if clips[j] & (on | seen) == on {
+                        clips[j] |= seen;
+                        stack.push(j);
+                    }
+                }
+            }
+            if region.len() > max_area_px {
+                for &i in &region {
+                    clips[i as usize] &= !on;
+                }
+            }
+        }
+    }
+    clips.into_iter().map(|c| c & 0x0f != 0).collect()
+}
+
+/// The 8-connected neighbours of `(x, y)` inside a `w x h` grid.
+fn neighbours8(x: usize, y: usize, w: usize, h: usize) -> impl Iterator<Item = (usize, usize)> {
+    (-1i64..=1)
+        .flat_map(move |dy| (-1i64..=1).map(move |dx| (x as i64 + dx, y as i64 + dy)))
+        .filter(move |&(nx, ny)| {
+            (nx, ny) != (x as i64, y as i64) && nx >= 0 && ny >= 0 && nx < w as i64 && ny < h as i64
+        })
+        .map(|(nx, ny)| (nx as usize, ny as usize))
 }
 
 /// `g` less its local background, the box mean within `radius` px. The window is much
@@ -550,7 +605,7 @@ fn blob_candidate(
     let radius_px = (pixels.len() as f64 / core::f64::consts::PI).sqrt();
     // Colour before centring: most blobs of a textured scene fail it, and the centring
     // (three background fits and a matched filter) is the costly step.
-    let colour = blob_colour(img, maps, id, rough, radius_px, m.saturated_pixels > 0)?;
+    let colour = blob_colour(img, maps, id, rough, radius_px, m.saturated_pixels > 0, params.colour.rgb)?;
     let score = params.colour.score_with(maps.weights, colour.excess_rgb, colour.pixels, maps.sigma);
     if score.sigmas < params.min_colour_sigmas {
         return None;
@@ -598,6 +653,7 @@ fn blob_colour(
     centre: Vec2,
     radius_px: f64,
     clipped_core: bool,
+    laser_rgb: [f64; 3],
 ) -> Option<BlobColour> {
     // The whole disc, not only the pixels the threshold picked: a speck of noise picked
     // for being bright along the laser's colour would otherwise score as that colour.
@@ -612,10 +668,10 @@ fn blob_colour(
     let (mut ring_px, mut near) = (Vec::new(), Vec::new());
     for y in ly..=hy {
         for x in lx..=hx {
-            let (r, g, b) = img.rgb(roi.x0 + x, roi.y0 + y);
-            if core_clipped(maps.lit, (r, g, b)) {
+            if maps.saturated[y * roi.w + x] {
                 continue;
             }
+            let (r, g, b) = img.rgb(roi.x0 + x, roi.y0 + y);
             let px = [r as f64, g as f64, b as f64];
             let d = ((roi.x0 + x) as f64 - centre.x).hypot((roi.y0 + y) as f64 - centre.y);
             let label = maps.label[y * roi.w + x];
@@ -637,7 +693,30 @@ fn blob_colour(
     let (ns, nb) = (n_sig as f64, n_bg as f64);
     let mean_bg = bg.iter().fold([0f64; 3], |a, p| [a[0] + p[0], a[1] + p[1], a[2] + p[2]]);
     let excess_rgb = [sig[0] / ns - mean_bg[0] / nb, sig[1] / ns - mean_bg[1] / nb, sig[2] / ns - mean_bg[2] / nb];
-    Some(BlobColour { excess_rgb, pixels: n_sig })
+    let blind = [0, 1, 2].map(|c| 2 * bg.iter().filter(|p| p[c] >= CLIPPED as f64).count() > n_bg);
+    Some(BlobColour { excess_rgb: seen_through_clipping(excess_rgb, blind, laser_rgb), pixels: n_sig })
+}
+
+/// `excess` with each channel clipped on the blob's surface (`blind`) filled in as the
+/// laser's colour (`laser_rgb`) would have it, at the contrast the other channels show
+/// along that colour. A clipped channel shows no excess whatever lies on it: a dot on a
+/// white square whose green and blue clip shows only in red, and scored as red, off the
+/// laser's colour, it was dropped. Where only clipped channels would show the laser, the
+/// excess stays as measured.
+fn seen_through_clipping(excess: [f64; 3], blind: [bool; 3], laser_rgb: [f64; 3]) -> [f64; 3] {
+    if !blind.iter().any(|&b| b) {
+        return excess;
+    }
+    let seen = |c: usize| !blind[c];
+    let norm: f64 = (0..3).filter(|&c| seen(c)).map(|c| laser_rgb[c] * laser_rgb[c]).sum();
+    let top = laser_rgb.iter().copied().fold(0.0, f64::max);
+    // The seen channels must carry a fair share of the laser's light for a contrast along
+    // it to mean anything.
+    if norm < (0.2 * top).powi(2) {
+        return excess;
+    }
+    let along = (0..3).filter(|&c| seen(c)).map(|c| excess[c] * laser_rgb[c]).sum::<f64>() / norm;
+    [0, 1, 2].map(|c| if blind[c] { along * laser_rgb[c] } else { excess[c] })
 }
 
 /// The ring's pixels on the surface the blob lies on. A ring that crosses a board square's
@@ -689,7 +768,10 @@ fn measure_blob(maps: &RoiMaps, pixels: &[usize]) -> Option<BlobMeasures> {
     let peak = green.iter().copied().fold(maps.threshold, f32::max) as f64;
     let mass: f64 = green.iter().map(|&e| e as f64).sum();
     let core_pixels = sat_count + green.iter().filter(|&&e| e as f64 >= 0.5 * peak).count();
-    // Matched-filter SNR of the halo; the core counts as signal at the peak level.
+    // Matched-filter SNR of the halo; a clipped pixel counts at the peak level or at the
+    // contrast its unclipped channels still show, whichever is more. At the peak alone a
+    // near dot on a square whose green and blue clip (its halo hidden, only its core
+    // showing) ranked below eight blobs of algae and was cut (tuning seed 9).
     let snr = (mass + sat_count as f64 * peak) / (maps.sigma * (pixels.len() as f64).sqrt());
     // Elongated blobs are edges or streaks, not a dot.
     let w = maps.roi.w;
@@ -810,6 +892,44 @@ mod tests {
         let dot = c.iter().find(|c| (c.pixel - truth).norm() < 0.5);
         assert!(dot.is_some(), "{c:?}");
         assert_eq!(c.len(), 1, "no square edge or corner is a candidate: {c:?}");
+    }
+
+    /// A near dot on a white square whose green and blue clip under the lamp (a region of
+    /// 40 000 px, twice the largest dot): the dot shows only in red, its core clips all
+    /// three. Counted as a dot's core, the clipped square merged with the dot into one blob
+    /// too large for a dot; as the background's clipping, the dot is found, and the square
+    /// alone gives no candidate.
+    #[test]
+    fn a_dot_on_a_square_whose_green_clips_is_found() {
+        let (w, h) = (400usize, 300usize);
+        let truth = Vec2::new(201.4, 148.3);
+        let render = |with_dot: bool| {
+            let mut data = vec![0u8; w * h * 3];
+            for y in 0..h {
+                for x in 0..w {
+                    let square = (100..300).contains(&x) && (50..250).contains(&y);
+                    let d2 = (x as f64 - truth.x).powi(2) + (y as f64 - truth.y).powi(2);
+                    let dot = if with_dot { 180.0 * (-d2 / (2.0 * 5.0f64.powi(2))).exp() } else { 0.0 };
+                    let noise = (((x * 31 + y * 17) % 7) as f64 - 3.0) * 0.8;
+                    let [r, g, b] = if square { [150.0, 255.0, 255.0] } else { [40.0, 120.0, 110.0] };
+                    let i = (y * w + x) * 3;
+                    data[i] = (r + dot + noise).clamp(0.0, 255.0) as u8;
+                    data[i + 1] = (g + dot + noise).clamp(0.0, 255.0) as u8;
+                    data[i + 2] = (b + 0.4 * dot + noise).clamp(0.0, 255.0) as u8;
+                }
+            }
+            data
+        };
+        let p = DotDetectorParams::default();
+        let data = render(true);
+        let view = ColourView { width: w, height: h, stride: w * 3, order: ChannelOrder::Rgb, data: &data };
+        let c = find_dot_candidates(&view, &SearchRegion::default(), &p, 8);
+        let dot = c.iter().find(|c| (c.pixel - truth).norm() < 1.0);
+        assert!(dot.is_some_and(|d| d.saturated_core), "no candidate at the dot: {c:?}");
+        let data = render(false);
+        let view = ColourView { width: w, height: h, stride: w * 3, order: ChannelOrder::Rgb, data: &data };
+        let c = find_dot_candidates(&view, &SearchRegion::default(), &p, 8);
+        assert!(c.is_empty(), "the clipped square alone gave candidates: {c:?}");
     }
 
     #[test]
