@@ -311,18 +311,11 @@ impl RoiMaps {
             if pixels.len() > max_area_px {
                 break;
             }
-            let (x, y) = (i % w, i / w);
-            for dy in -1i32..=1 {
-                for dx in -1i32..=1 {
-                    let (nx, ny) = (x as i32 + dx, y as i32 + dy);
-                    if nx < 0 || ny < 0 || nx >= w as i32 || ny >= h as i32 {
-                        continue;
-                    }
-                    let j = ny as usize * w + nx as usize;
-                    if self.label[j] == 0 && (self.excess[j] >= self.threshold * 0.5 || self.saturated[j]) {
-                        self.label[j] = id;
-                        stack.push(j);
-                    }
+            for (nx, ny) in neighbours8(i % w, i / w, w, h) {
+                let j = ny * w + nx;
+                if self.label[j] == 0 && (self.excess[j] >= self.threshold * 0.5 || self.saturated[j]) {
+                    self.label[j] = id;
+                    stack.push(j);
                 }
             }
         }

@@ -91,12 +91,10 @@ pub fn size_px(width: u32, height: u32, width_px: u32) -> (u32, u32) {
 
 /// Keeps `photo`'s thumbnail, if a report is being made.
 pub fn keep(photo: &Path, kept: Kept) {
-    if wanted_width_px().is_none() {
-        return;
-    }
     let bytes = kept.image.as_raw().len();
     let kept = {
         let mut s = store();
+        // No report is being made.
         let Some(s) = s.as_mut() else { return };
         if s.unpacked_bytes + bytes <= UNPACKED_BYTES {
             s.unpacked_bytes += bytes;

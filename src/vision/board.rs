@@ -112,26 +112,23 @@ pub fn find_checkerboard(photo: &Photo, path: &Path, cols: u32, rows: u32) -> Re
     let cv = |e| VisionError::cv(path, e);
     for step in search_plan(photo.width()) {
         let factor = step.factor();
-        let grey = photo.reduced_grey(factor).map_err(cv)?;
-        let (image, origin) = match step {
+        let (found, origin) = match step {
             SearchStep::Located { .. } => {
                 let Some(crop) =
                     locate_by_saddles(photo.reduced_grey(2 * factor).map_err(cv)?, cols, rows).map_err(cv)?
                 else {
                     continue;
                 };
+                let grey = photo.reduced_grey(factor).map_err(cv)?;
                 let crop = Rect::new(2 * crop.x, 2 * crop.y, 2 * crop.width, 2 * crop.height)
                     & Rect::new(0, 0, grey.cols(), grey.rows());
                 if crop.width > MAX_STEP_WIDTH_PX as i32 || crop.width < 16 || crop.height < 16 {
                     continue;
                 }
-                (Some(Mat::roi(grey, crop).map_err(cv)?), (crop.x as f64, crop.y as f64))
+                let image = Mat::roi(grey, crop).map_err(cv)?;
+                (step.detect(&image, cols, rows), (crop.x as f64, crop.y as f64))
             }
-            _ => (None, (0.0, 0.0)),
-        };
-        let found = match &image {
-            Some(crop) => step.detect(crop, cols, rows),
-            None => step.detect(grey, cols, rows),
+            _ => (step.detect(photo.reduced_grey(factor).map_err(cv)?, cols, rows), (0.0, 0.0)),
         };
         if let Some(pts) = found.map_err(cv)? {
             // A reduced pixel (i, j) covers full pixels [f i, f i + f); its centre is at
