@@ -168,9 +168,22 @@ pub struct CandidateCheck {
     pub colour_sigmas: f64,
     #[serde(default)]
     pub colour_angle_deg: f64,
+    /// 1 sigma of that angle from the blob's noise, degrees.
+    #[serde(default)]
+    pub colour_angle_sigma_deg: f64,
     /// Equivalent radius, pixels, and whether its core is clipped.
     pub radius_px: f64,
     pub saturated: bool,
+    /// Equivalent radius of its part at or above half its peak, pixels, and that peak
+    /// (excess along the laser's colour, 8-bit levels).
+    #[serde(default)]
+    pub core_radius_px: f64,
+    #[serde(default)]
+    pub peak_levels: f64,
+    /// How far its half-peak outline departs from an ellipse, share of its radius; null
+    /// when not measured (clipped, small or faint).
+    #[serde(default)]
+    pub outline_roughness: Option<f64>,
     /// Signed offset across the calibrated line's image, pixels (positive: the side a beam
     /// turned out of the camera-beam plane by a positive angle moves to).
     pub offset_px: f64,
@@ -190,8 +203,12 @@ impl CandidateCheck {
             snr: c.candidate.snr,
             colour_sigmas: c.candidate.colour_score,
             colour_angle_deg: c.candidate.colour_angle_rad.to_degrees(),
+            colour_angle_sigma_deg: c.candidate.colour_angle_sigma_rad.to_degrees(),
             radius_px: c.candidate.radius_px,
             saturated: c.candidate.saturated_core,
+            core_radius_px: c.candidate.core_radius_px,
+            peak_levels: c.candidate.peak_green,
+            outline_roughness: c.candidate.outline_roughness,
             offset_px: c.gate.offset_px,
             sigma_px: c.gate.sigma_px,
             distance_m: c.gate.depth_m,

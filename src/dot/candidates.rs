@@ -12,6 +12,7 @@
 
 use super::centre::{refine_centre, weighted_centre};
 use super::colour::LaserColourModel;
+use super::outline::{outline_roughness, ContrastMap};
 use fslcal_core::Vec2;
 
 /// An 8-bit level at or above which a channel is taken as clipped (JPEG rounding keeps
@@ -99,6 +100,12 @@ pub struct DotCandidate {
     pub colour_score: f64,
     /// Angle between the blob's chroma and the laser's, radians.
     pub colour_angle_rad: f64,
+    /// 1-sigma noise of `colour_angle_rad`, radians.
+    pub colour_angle_sigma_rad: f64,
+    /// How far its half-peak outline departs from an ellipse, as a share of its radius
+    /// ([`super::outline::outline_roughness`]); `None` when not measured (a clipped core, a
+    /// blob too small or too faint for its outline to mean anything).
+    pub outline_roughness: Option<f64>,
     /// Mean excess (R, G, B) of the scored pixels over the local background, 8-bit levels:
     /// what a calibration learns the laser's colour from.
     pub excess_rgb: [f64; 3],
@@ -613,6 +620,16 @@ fn blob_candidate(
             return None;
         }
     }
+    let outline_roughness = (m.saturated_pixels == 0
+        && core_radius_px >= OUTLINE_MIN_RADIUS_PX
+        && m.peak >= OUTLINE_MIN_PEAK_SIGMAS * maps.sigma)
+        .then(|| {
+            let map =
+                ContrastMap { excess: &maps.excess, clipped: &maps.saturated, width: maps.roi.w, height: maps.roi.h };
+            let at = centre - Vec2::new(maps.roi.x0 as f64, maps.roi.y0 as f64);
+            outline_roughness(&map, at, m.peak, maps.sigma, 3.0 * core_radius_px + 4.0)
+        })
+        .flatten();
     Some(DotCandidate {
         pixel: centre,
         snr: m.snr,
@@ -623,9 +640,17 @@ fn blob_candidate(
         saturated_px: m.saturated_pixels,
         colour_score: score.sigmas,
         colour_angle_rad: score.angle_rad,
+        colour_angle_sigma_rad: score.angle_sigma_rad,
+        outline_roughness,
         excess_rgb: colour.excess_rgb,
     })
 }
+
+/// Smallest half-peak radius whose outline's shape is measured, pixels: below it the pixel
+/// grid and the blur make every blob round.
+const OUTLINE_MIN_RADIUS_PX: f64 = 4.0;
+/// Least peak, in noise sigmas, whose outline's shape is measured.
+const OUTLINE_MIN_PEAK_SIGMAS: f64 = 5.0;
 
 /// A blob's colour: the mean excess of its scored pixels over a ring of background.
 struct BlobColour {

@@ -7,3 +7,4 @@ pub mod colour;
 pub mod near_prediction;
 pub mod on_line;
 pub mod on_target;
+mod outline;

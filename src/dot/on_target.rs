@@ -100,6 +100,8 @@ pub fn hand_candidate(px: Vec2) -> DotCandidate {
         saturated_px: 0,
         colour_score: f64::INFINITY,
         colour_angle_rad: 0.0,
+        colour_angle_sigma_rad: 0.0,
+        outline_roughness: None,
         excess_rgb: [0.0; 3],
     }
 }

@@ -272,6 +272,8 @@ mod tests {
             saturated_px: 0,
             colour_score: score,
             colour_angle_rad: 0.1,
+            colour_angle_sigma_rad: 0.02,
+            outline_roughness: None,
             excess_rgb: [10.0, 30.0, 10.0],
         }
     }

@@ -12,7 +12,7 @@ use super::gates::{self, GateResult};
 use super::target::{locate_target, LocatedTarget, Target};
 use crate::dot::candidates::SearchRegion;
 use crate::dot::candidates::{ChannelOrder, ColourView, DotCandidate, DotDetectorParams};
-use crate::dot::colour::LaserColourModel;
+use crate::dot::colour::{LaserColourModel, MeasuredColour};
 use crate::dot::near_prediction;
 use crate::dot::on_line::too_large;
 use crate::dot::on_target::{self, detected_sigma_px, hand_candidate, Surface, HAND_DOT_SIGMA_PX};
@@ -421,16 +421,17 @@ fn choose_jointly(job: &LaserJob, results: &mut [PhotoResult]) {
 
 /// The laser's colour from the used photos' detected dots (hand-given dots have none).
 fn learn_colour(results: &[PhotoResult], fit: &LaserFit) -> Option<LaserColourModel> {
-    let excesses: Vec<[f64; 3]> = results
+    let dots: Vec<MeasuredColour> = results
         .iter()
         .zip(&fit.photos)
         .filter_map(|(r, pf)| {
             let e = r.as_ref().ok()?;
             let used = pf.as_ref().is_some_and(|p| p.outlier.is_none());
-            (used && e.dot_source != DotSource::Hand).then(|| e.candidates.first().map(|c| c.excess_rgb)).flatten()
+            let c = e.candidates.first().filter(|_| used && e.dot_source != DotSource::Hand)?;
+            Some(MeasuredColour { excess_rgb: c.excess_rgb, angle_sigma_rad: c.colour_angle_sigma_rad })
         })
         .collect();
-    LaserColourModel::learn(&excesses)
+    LaserColourModel::learn(&dots)
 }
 
 fn report_photos(
