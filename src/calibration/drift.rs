@@ -84,7 +84,7 @@ pub fn check(cal: &Calibration, photos: &[PathBuf], progress: &(dyn Fn() + Sync)
             Ok((out, candidates))
         })
         .collect::<Result<_, _>>()?;
-    let believed = believed_laser(cal, &search, &found);
+    let believed = believed_laser(cal, &found);
     let mut results = Vec::with_capacity(found.len());
     for (mut out, candidates) in found {
         if out.reason.is_none() {
@@ -111,8 +111,13 @@ pub fn check(cal: &Calibration, photos: &[PathBuf], progress: &(dyn Fn() + Sync)
 /// The laser the photos are judged against: the calibrated one, or the calibrated one
 /// turned by the angle most photos' candidates agree on, when that explains at least
 /// [`MIN_TURNED_PHOTOS`] photos and more than the calibrated laser does.
-fn believed_laser(cal: &Calibration, search: &LineSearch, found: &[(PhotoCheck, Vec<LineCandidate>)]) -> LaserLine {
-    let calibrated = found.iter().filter(|(_, c)| choose(c, search.band_half_width_px).is_ok()).count();
+fn believed_laser(cal: &Calibration, found: &[(PhotoCheck, Vec<LineCandidate>)]) -> LaserLine {
+    // Photos the calibrated laser explains: those with a plausible blob on its line, clear
+    // or not, counted as the turned laser's support is (an agreeing blob, clear or not). A
+    // photo withheld as ambiguous between blobs on the calibrated line is no vote for a
+    // turn: counting only clear choices let two faint blobs 8 px off the line outvote two
+    // photos with their dots on it and called a drift (tuning target-less seed 3).
+    let calibrated = found.iter().filter(|(_, c)| c.iter().any(LineCandidate::plausible)).count();
     // Each off-line candidate's implied turn and its sigma (the gate's pixel sigma through
     // the turn's pixel rate, f * along / depth); blobs the calibrated laser explains, or
     // whose size or signal rule them out, vote for no turn.
@@ -278,6 +283,38 @@ mod tests {
             laser_colour: None,
             source: "test".into(),
         }
+    }
+
+    /// Two photos, each with two plausible blobs on the calibrated line (ambiguous, so no
+    /// clear dot) and a faint blob off it at one implied turn: the calibrated laser still
+    /// explains both photos, and two faint blobs do not outvote it. A third photo with only
+    /// the off-line blob tips it: three photos agree on the turn, two on the line.
+    #[test]
+    fn photos_ambiguous_on_the_calibrated_line_still_vote_for_it() {
+        let cal = calibration();
+        let search = cal.line_search();
+        let blob = |pixel: fslcal_core::Vec2, snr: f64| {
+            let mut c = crate::dot::on_target::hand_candidate(pixel);
+            c.radius_px = 4.0;
+            c.saturated_core = true;
+            c.snr = snr;
+            judge_candidate(&cal.camera, &cal.laser, &search, c, false).expect("a distance on the line")
+        };
+        let off = turned(&cal.laser, 0.4f64.to_radians()).unwrap();
+        let photo = |z: f64, on_line: bool| {
+            let mut cands = vec![blob(off.pixel_at_depth(&cal.camera, z).unwrap(), 15.0)];
+            if on_line {
+                cands.push(blob(cal.laser.pixel_at_depth(&cal.camera, z).unwrap(), 60.0));
+                cands.push(blob(cal.laser.pixel_at_depth(&cal.camera, 0.7 * z).unwrap(), 60.0));
+            }
+            assert!(!cands[0].gate.explained(), "the turned blob is off the calibrated line");
+            (PhotoCheck::default(), cands)
+        };
+        let two = vec![photo(1.5, true), photo(2.5, true)];
+        assert!(two.iter().all(|(_, c)| choose(c, search.band_half_width_px).is_err()), "ambiguous");
+        assert_eq!(believed_laser(&cal, &two), cal.laser);
+        let three = vec![photo(1.5, true), photo(2.5, true), photo(3.0, false)];
+        assert_ne!(believed_laser(&cal, &three), cal.laser);
     }
 
     /// How `check` judges a photo whose only blob is a dot-like candidate at `pixel`.

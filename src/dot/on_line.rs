@@ -177,6 +177,21 @@ pub enum Refusal {
     Ragged,
 }
 
+impl Refusal {
+    /// Why, in the words a report shows.
+    pub fn describe(self) -> &'static str {
+        match self {
+            Refusal::OffLine => "off the calibrated line",
+            Refusal::TooLarge => "too large for its distance",
+            Refusal::TooSmall => "too small for its distance",
+            Refusal::TooFaint => "too faint for its distance",
+            Refusal::OutOfRange => "beyond the searched depths",
+            Refusal::OffColour => "not the laser's colour",
+            Refusal::Ragged => "ragged outline: no beam's footprint",
+        }
+    }
+}
+
 /// The dot found near the laser's image.
 #[derive(Clone, Debug, PartialEq)]
 pub struct LineDot {

@@ -9,7 +9,7 @@
 use super::plot::{colour, Chart, Layer, Marker};
 use super::thumbnail::{self, Overlay};
 use super::{add_plot, file_name, thumbnail_cells, Cell, Page, ReportError, ReportFiles, Verdict};
-use crate::calibration::outcome::CheckSkip;
+use crate::calibration::outcome::{CandidateCheck, CheckSkip};
 use crate::reason::Reason;
 use fslcal_core::{CameraModel, LaserLine, Vec2};
 use std::path::{Path, PathBuf};
@@ -27,6 +27,10 @@ pub struct CheckPhoto {
     pub flag: bool,
     /// Why the photo could not be checked.
     pub reason: Option<Reason<CheckSkip>>,
+    /// Share of the plausible candidates' likelihood the dot carries (0-1).
+    pub confidence: Option<f64>,
+    /// Every dot-like blob in the band, as `fslcal check --json` lists them.
+    pub candidates: Vec<CandidateCheck>,
 }
 
 /// A drift-check run.
@@ -106,6 +110,8 @@ impl CheckReport {
                     threshold_px: p.explained_sigma_px.map(|s| s * crate::calibration::drift::FLAG_SIGMAS),
                     flag: p.flag,
                     reason: p.reason.clone(),
+                    confidence: p.confidence,
+                    candidates: p.candidates.clone(),
                 })
                 .collect(),
             drifted: r.drifted,
@@ -151,12 +157,22 @@ pub fn write(dir: &Path, r: &CheckReport) -> Result<PathBuf, ReportError> {
         "How far each photo's dot lies from the image of the calibrated laser line. A rigid laser keeps them all under the threshold; a step or a climb through the dive means the mount moved.",
     )?;
     page.heading("Photos");
-    page.note("Drawn on each photo: the calibrated laser line's image (magenta) and the dot found (red ring).");
+    page.note("Drawn on each photo: the calibrated laser line's image (magenta), the dot found (red ring) and the other dot-like blobs near the line (small marks).");
     let line = thumbnail::laser_image_px(&r.camera, &r.laser);
     let overlays: Vec<(&str, Overlay)> = r
         .photos
         .iter()
-        .map(|p| (p.file.as_str(), Overlay { dot_px: p.dot_px, polylines_px: line.clone(), ..Overlay::default() }))
+        .map(|p| {
+            let others = p
+                .candidates
+                .iter()
+                .map(|c| Vec2::new(c.pixel[0], c.pixel[1]))
+                .filter(|c| p.dot_px.is_none_or(|d| (d - c).norm() > 1e-6))
+                .collect();
+            let overlay =
+                Overlay { dot_px: p.dot_px, polylines_px: line.clone(), marks_px: others, ..Overlay::default() };
+            (p.file.as_str(), overlay)
+        })
         .collect();
     let mut rows = Vec::new();
     for (p, image) in r.photos.iter().zip(thumbnail_cells(&mut files, &overlays)) {
@@ -179,7 +195,56 @@ pub fn write(dir: &Path, r: &CheckReport) -> Result<PathBuf, ReportError> {
         &[false, false, false, true, true, true],
         rows,
     );
+    candidate_table(&mut page, r);
     files.write(dir, &page)
+}
+
+/// Every photo's dot-like blobs near the line and what the search made of each: the one it
+/// took and with what confidence, the plausible ones that made a photo ambiguous, and why
+/// each other one cannot be the dot.
+fn candidate_table(page: &mut Page, r: &CheckReport) {
+    page.heading("Candidates");
+    page.note("Each dot-like blob near the calibrated line, strongest first. A blob is the dot when it is plausible (on the line within what the calibration explains, of a dot's size, brightness, colour and round outline at the distance its place implies) and carries 90% of the plausible blobs' likelihood; blobs refused only for their colour or outline count against it (a scene that makes dot-like things there makes the survivor less certain).");
+    let mut rows = Vec::new();
+    for p in &r.photos {
+        for c in &p.candidates {
+            let chosen = p.dot_px.is_some_and(|d| (d - Vec2::new(c.pixel[0], c.pixel[1])).norm() < 1e-6);
+            let verdict = match (chosen, c.refused) {
+                (true, _) => Cell::Good(format!("the dot (confidence {:.2})", p.confidence.unwrap_or(1.0))),
+                (false, Some(why)) => Cell::Text(why.describe().into()),
+                (false, None) if p.dot_px.is_some() => Cell::Text("plausible, weaker".into()),
+                (false, None) => Cell::Bad("plausible: none clearly the dot".into()),
+            };
+            rows.push(vec![
+                file_name(&p.file).into(),
+                format!("({:.0}, {:.0})", c.pixel[0], c.pixel[1]).into(),
+                format!("{:.2}", c.distance_m).into(),
+                format!("{:.1} / {:.1}", c.offset_px, c.sigma_px).into(),
+                format!("{:.0}", c.snr).into(),
+                format!("{:.0} +- {:.0}", c.colour_angle_deg, c.colour_angle_sigma_deg.max(0.5)).into(),
+                c.outline_roughness.map_or("-".into(), |o| format!("{o:.3}")).into(),
+                verdict,
+            ]);
+        }
+    }
+    if rows.is_empty() {
+        page.paragraph("No dot-like blob near the calibrated line in any photo.");
+        return;
+    }
+    page.table(
+        &[
+            "file",
+            "blob (px)",
+            "distance (m)",
+            "offset / sigma (px)",
+            "SNR",
+            "colour angle (deg)",
+            "outline roughness",
+            "verdict",
+        ],
+        &[false, true, true, true, true, true, true, false],
+        rows,
+    );
 }
 
 #[cfg(test)]
@@ -217,6 +282,25 @@ mod tests {
                     threshold_px: Some(3.0),
                     flag: false,
                     reason: None,
+                    confidence: Some(0.95),
+                    candidates: vec![
+                        CandidateCheck {
+                            pixel: [on_line.x, on_line.y],
+                            snr: 80.0,
+                            distance_m: 2.0,
+                            offset_px: 0.4,
+                            sigma_px: 0.6,
+                            ..CandidateCheck::default()
+                        },
+                        CandidateCheck {
+                            pixel: [on_line.x + 40.0, on_line.y - 30.0],
+                            snr: 120.0,
+                            distance_m: 1.4,
+                            outline_roughness: Some(0.23),
+                            refused: Some(crate::dot::on_line::Refusal::Ragged),
+                            ..CandidateCheck::default()
+                        },
+                    ],
                 },
                 CheckPhoto {
                     file: photo.display().to_string(),
@@ -225,6 +309,8 @@ mod tests {
                     threshold_px: Some(2.5),
                     flag: true,
                     reason: None,
+                    confidence: Some(1.0),
+                    candidates: Vec::new(),
                 },
             ],
             drifted: true,
@@ -241,6 +327,10 @@ mod tests {
         let svg = std::fs::read_to_string(out.join("plots/check-offsets.svg")).unwrap();
         assert!(svg.contains("flag threshold (5 sigma)"));
         assert!(html.contains("<td class=\"num\">2.50</td>"), "each photo's own threshold");
+        // Each blob near the line with the search's verdict on it.
+        assert!(html.contains("the dot (confidence 0.95)"), "{html}");
+        assert!(html.contains("ragged outline"), "{html}");
+        assert!(html.contains("<td class=\"num\">0.230</td>"), "its roughness: {html}");
         // The thumbnail shows the line through the on-line dot's pixel (scale 320/400).
         let thumb = image::open(out.join("thumbs/00-fish.jpg")).unwrap().to_rgb8();
         let (u, v) = ((0.8 * (on_line.x + 0.5) - 0.5).round() as u32, (0.8 * (on_line.y + 0.5) - 0.5).round() as u32);
