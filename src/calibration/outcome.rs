@@ -278,7 +278,11 @@ mod tests {
         let c = PhotoCheck {
             file: "b.jpg".into(),
             reason: Some(
-                CheckSkip::NoDot(DotOnLineError::Ambiguous { candidates_px: vec![[10.0, 20.0], [30.4, 40.6]] }).into(),
+                CheckSkip::NoDot(DotOnLineError::Ambiguous {
+                    candidates_px: vec![[10.0, 20.0], [30.4, 40.6]],
+                    lookalikes: 0,
+                })
+                .into(),
             ),
             ..PhotoCheck::default()
         };

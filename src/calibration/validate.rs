@@ -228,7 +228,7 @@ fn choose_dot(job: &ValidationJob, t: &LocatedTarget) -> Result<(Vec2, DotFix), 
         on_target.into_iter().partition(|c| disagreement(c) <= MAX_DISTANCE_DISAGREEMENT.ln_1p());
     match choose(&agree, search.band_half_width_px) {
         Ok(dot) => Ok((dot.pixel, laser.fix_from_pixel(camera, dot.pixel).ok_or(ValidationSkip::NoDot)?)),
-        Err(DotOnLineError::Ambiguous { candidates_px }) => Err(ValidationSkip::Ambiguous { candidates_px }),
+        Err(DotOnLineError::Ambiguous { candidates_px, .. }) => Err(ValidationSkip::Ambiguous { candidates_px }),
         Err(_) => {
             match disagree.iter().filter(|c| c.plausible()).max_by(|a, b| a.candidate.snr.total_cmp(&b.candidate.snr)) {
                 Some(c) => Err(ValidationSkip::NotTheDot {
