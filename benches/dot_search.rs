@@ -7,7 +7,7 @@
 //! covers only the target's image, the target-less search a band along the laser), then
 //! searched again without the colour floor so that every blob is scored. Each blob is
 //! labelled by the truth: the dot (within 2 px), the impostor it lies on, or texture. Prints the median and worst search time and a
-//! histogram of colour scores per label; then the time of the search `check` and `measure`
+//! histogram of colour scores and of outline roughness per label; then the time of the search `check` and `measure`
 //! run, along the set's calibrated line. Asserts nothing about time.
 
 use fslcal::dot::candidates::{find_dot_candidates, ChannelOrder, ColourView, DotDetectorParams, SearchRegion};
@@ -56,6 +56,28 @@ fn label(truth: &Value, px: [f64; 2]) -> String {
     "texture".into()
 }
 
+/// Upper edges of the outline roughness bins (`check` refuses above 0.10); the first bin is
+/// "not measured".
+const ROUGH_EDGES: [f64; 6] = [f64::NAN, 0.03, 0.06, 0.10, 0.2, f64::INFINITY];
+
+fn rough_bin(r: Option<f64>) -> usize {
+    r.map_or(0, |r| 1 + ROUGH_EDGES[1..].iter().position(|&e| r < e).unwrap_or(ROUGH_EDGES.len() - 2))
+}
+
+/// How the half-peak outline's roughness separates true dots from each impostor kind.
+fn outline_histogram(hist: &BTreeMap<String, [usize; ROUGH_EDGES.len()]>) {
+    if hist.is_empty() {
+        return;
+    }
+    println!("
+outline roughness (share of the radius off the best ellipse; `check` refuses above 0.10) of every blob the search returns, by what the truth says it is");
+    println!("| blob | not measured | < 0.03 | 0.03-0.06 | 0.06-0.10 | 0.10-0.2 | >= 0.2 |");
+    println!("|---|---|---|---|---|---|---|");
+    for (k, counts) in hist {
+        println!("| {k} | {} |", counts.iter().map(|c| c.to_string()).collect::<Vec<_>>().join(" | "));
+    }
+}
+
 fn bin(score: f64) -> usize {
     EDGES.windows(2).position(|w| score >= w[0] && score < w[1]).unwrap_or(EDGES.len() - 2)
 }
@@ -88,6 +110,7 @@ fn main() {
     let mut line_ms = Vec::new();
     let mut hist: BTreeMap<String, [usize; EDGES.len() - 1]> = BTreeMap::new();
     let mut hist_learned = hist.clone();
+    let mut outlines: BTreeMap<String, [usize; ROUGH_EDGES.len()]> = BTreeMap::new();
     for path in &list {
         let Ok(img) = image::open(path) else { continue };
         let img = img.to_rgb8();
@@ -121,14 +144,16 @@ fn main() {
             .and_then(|s| serde_json::from_str(&s).ok())
             .unwrap_or(Value::Null);
         for c in &found {
-            scored.entry(label(&truth, [c.pixel.x, c.pixel.y])).or_insert([0; EDGES.len() - 1])[bin(c.colour_score)] +=
-                1;
+            let kind = label(&truth, [c.pixel.x, c.pixel.y]);
+            outlines.entry(kind.clone()).or_insert([0; ROUGH_EDGES.len()])[rough_bin(c.outline_roughness)] += 1;
+            scored.entry(kind).or_insert([0; EDGES.len() - 1])[bin(c.colour_score)] += 1;
         }
     }
     report(&list, &times_ms, &hist, "the green prior (sets without a learned colour)");
     if !hist_learned.is_empty() {
         histogram(&hist_learned, "the laser colour the unit's own calibration learned");
     }
+    outline_histogram(&outlines);
     if !line_ms.is_empty() {
         line_ms.sort_by(f64::total_cmp);
         println!(
