@@ -4,12 +4,10 @@
 //! dot `laser` used in every photo it used, within 2 px. Before issue 14 `check` missed
 //! three of them and took a speck 354 px away on another, and `validate` skipped seven.
 //!
-//! Not met yet (issue 14 stays open): since `laser` chooses dots by consensus it uses all
-//! 16 photos, and the along-line search misses one of them (photo_13: a 3.96 m dot on a
-//! black square between light ones, found by `laser` only in a small disc around its fit's
-//! prediction). The test holds what is reached: never a wrong dot, and no fewer than 15.
-//! (photo_05's blooming dot, 33 px at the detection threshold, was refused as too large
-//! until a dot's size was judged at half its peak.)
+//! Met (asserted since stop 25): all 16 photos in each command, never a wrong dot. (photo_13, a
+//! 3.96 m dot on a black square between light ones, was missed by the along-line search
+//! for several stops; photo_05's blooming dot, 33 px at the detection threshold, was
+//! refused as too large until a dot's size was judged at half its peak.)
 
 mod common;
 
@@ -87,7 +85,7 @@ fn check_validate_and_measure_find_the_dots_laser_used_on_the_demo_photos() {
             }
         }
         eprintln!("{command}: the dot laser used in {right} of {} photos", used.len());
-        assert!(right >= used.len().min(15), "{command}: only {right} of {}; missed {missed:#?}", used.len());
+        assert_eq!(right, used.len(), "{command}: only {right} of {}; missed {missed:#?}", used.len());
     }
     eprintln!("missed: {missed:?}");
     assert!(wrong.is_empty(), "a wrong dot: {wrong:#?}");
