@@ -181,7 +181,7 @@ impl LaserColourModel {
         let sigmas = (dot(mean_excess, weights) - 2.0 * off) * (pixels as f64).sqrt() / sigma_levels.max(1e-6);
         // Noise moves the chroma across the laser's direction by sigma / sqrt(n) levels, an
         // angle of that over the chroma's length.
-        let chroma = a.hypot(dot(mean_excess, self.across));
+        let chroma = a.hypot(o);
         let angle_sigma_rad =
             (sigma_levels.max(1e-6) / ((pixels.max(1) as f64).sqrt() * chroma.max(1e-9))).min(core::f64::consts::PI);
         ColourScore { sigmas, angle_rad: self.angle_rad(mean_excess), angle_sigma_rad }
@@ -248,8 +248,8 @@ impl LaserColourModel {
         if spread > 2.0 * PRIOR_SPREAD_RAD || !rgb.iter().all(|v| v.is_finite()) {
             return None;
         }
-        let dots = dirs.len().min(u16::MAX as usize) as u16;
-        Some(LaserColourModel::new(rgb, spread.max(MIN_SPREAD_RAD), ColourSource::Learned { dots }))
+        let count = dirs.len().min(u16::MAX as usize) as u16;
+        Some(LaserColourModel::new(rgb, spread.max(MIN_SPREAD_RAD), ColourSource::Learned { dots: count }))
     }
 
     /// Whether a blob's chroma lies beyond what this laser's spread and the blob's own

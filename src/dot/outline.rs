@@ -2,10 +2,10 @@
 //! tilted surface an ellipse, blurred by the optics, so its half-peak contour is an ellipse
 //! to within the noise. Algae tufts, fins and the texture of a reef are as green, as bright
 //! and as large as a dot at some distance on the laser's line, but their outlines are lobed
-//! and ragged. On the tuning target-less scenes (seeds 0-5) the half-peak outline of true
-//! unclipped dots of 4 px and more deviated from its best ellipse by 1.1-6.5% of its radius
-//! (median 3.4%, 95% below 19% where the dot straddled a fish's edge), algae tufts by 4.5-48%
-//! (median 8.1%).
+//! and ragged. On the tuning target-less scenes (seeds 0-5) the 17 true dots whose outline
+//! was measured departed from their best ellipse by at most 8.3% of the radius; on the
+//! held-out ones (every blob of the whole frame) 5 of 7 measured true dots stayed under 6%,
+//! while 329 of 492 algae tufts and 2 110 of 2 220 texture blobs exceeded 10%.
 
 use fslcal_core::Vec2;
 use nalgebra::{SMatrix, SVector};
@@ -17,8 +17,8 @@ const STEP_PX: f64 = 0.25;
 /// Least peak, in noise sigmas, at which a blob dim at its centre is judged hollow.
 const HOLLOW_MIN_PEAK_SIGMAS: f64 = 10.0;
 
-/// A blob's contrast map: row-major `width * height` levels, with the blob's clipped
-/// pixels counted at its peak.
+/// A blob's contrast map: row-major `width * height` levels; a clipped pixel has no contrast
+/// of its own and counts at the level the caller gives ([`ContrastMap::at`]'s `peak`).
 pub(super) struct ContrastMap<'a> {
     pub excess: &'a [f32],
     pub clipped: &'a [bool],

@@ -33,6 +33,13 @@ pub struct CheckPhoto {
     pub candidates: Vec<CandidateCheck>,
 }
 
+impl CheckPhoto {
+    /// Whether candidate `c` is the blob the search took for this photo's dot.
+    fn is_the_dot(&self, c: &CandidateCheck) -> bool {
+        self.dot_px.is_some_and(|d| (d - Vec2::new(c.pixel[0], c.pixel[1])).norm() < 1e-6)
+    }
+}
+
 /// A drift-check run.
 #[derive(Clone, Debug)]
 pub struct CheckReport {
@@ -163,12 +170,8 @@ pub fn write(dir: &Path, r: &CheckReport) -> Result<PathBuf, ReportError> {
         .photos
         .iter()
         .map(|p| {
-            let others = p
-                .candidates
-                .iter()
-                .map(|c| Vec2::new(c.pixel[0], c.pixel[1]))
-                .filter(|c| p.dot_px.is_none_or(|d| (d - c).norm() > 1e-6))
-                .collect();
+            let others =
+                p.candidates.iter().filter(|c| !p.is_the_dot(c)).map(|c| Vec2::new(c.pixel[0], c.pixel[1])).collect();
             let overlay =
                 Overlay { dot_px: p.dot_px, polylines_px: line.clone(), marks_px: others, ..Overlay::default() };
             (p.file.as_str(), overlay)
@@ -208,8 +211,7 @@ fn candidate_table(page: &mut Page, r: &CheckReport) {
     let mut rows = Vec::new();
     for p in &r.photos {
         for c in &p.candidates {
-            let chosen = p.dot_px.is_some_and(|d| (d - Vec2::new(c.pixel[0], c.pixel[1])).norm() < 1e-6);
-            let verdict = match (chosen, c.refused) {
+            let verdict = match (p.is_the_dot(c), c.refused) {
                 (true, _) => Cell::Good(format!("the dot (confidence {:.2})", p.confidence.unwrap_or(1.0))),
                 (false, Some(why)) => Cell::Text(why.describe().into()),
                 (false, None) if p.dot_px.is_some() => Cell::Text("plausible, weaker".into()),
