@@ -10,7 +10,9 @@ mod common;
 use calib_targets::variety::look::WaterType;
 use calib_targets::variety::{Kind, TargetTruth, VarietySet};
 use common::tinted::{board_13x9, small_board_set, SmallBoard, Tint};
-use fslcal::vision::{find_checkerboard, refine_corners, search_plan, EncodedPhoto, SearchStep};
+use fslcal::vision::{
+    find_checkerboard, refine_corners, search_plan, CropDetector, CropImage, EncodedPhoto, SearchStep,
+};
 use fslcal_core::Vec2;
 use rayon::prelude::*;
 use std::path::{Path, PathBuf};
@@ -166,7 +168,9 @@ fn the_search_plan_is_bounded_for_every_photo_size() {
                 SearchStep::Sectors { factor, .. } => assert!(width / factor <= 1100, "{width}: {step:?}"),
                 // Its crop is bounded where it is cut (`find_checkerboard`); the saddles are
                 // found on the image the sector steps run on.
-                SearchStep::Located { factor } => assert!(width / (2 * factor) <= 1100, "{width}: {step:?}"),
+                SearchStep::Located { factor } | SearchStep::LocatedAgain { factor, .. } => {
+                    assert!(width / (2 * factor) <= 1100, "{width}: {step:?}")
+                }
                 SearchStep::Quads { factor, normalised } => {
                     assert!(width / factor >= 400 || factor == 1, "{width}: {step:?}");
                     assert!(width / factor <= if normalised { 640 } else { 1100 }, "{width}: {step:?}");
@@ -187,6 +191,59 @@ fn the_search_plan_is_bounded_for_every_photo_size() {
             SearchStep::Located { factor: 2 },
             SearchStep::Sectors { factor: 4, normalised: true },
             SearchStep::Sectors { factor: 4, normalised: false },
+            SearchStep::LocatedAgain { factor: 2, image: CropImage::Grey, detector: CropDetector::QuadsNormalised },
+            SearchStep::LocatedAgain {
+                factor: 2,
+                image: CropImage::Channel(0),
+                detector: CropDetector::QuadsNormalised
+            },
+            SearchStep::LocatedAgain {
+                factor: 2,
+                image: CropImage::Channel(1),
+                detector: CropDetector::QuadsNormalised
+            },
+            SearchStep::LocatedAgain {
+                factor: 2,
+                image: CropImage::Channel(2),
+                detector: CropDetector::QuadsNormalised
+            },
+            SearchStep::LocatedAgain { factor: 2, image: CropImage::Grey, detector: CropDetector::SectorsNormalised },
         ]
     );
+}
+
+/// Four far boards (2.5-4 m, tuning calibration seeds 5, 6, 9 and 14 at the bench's
+/// 4000x3000) that no step on the grey image found: their squares differ mostly in one
+/// channel (green in green water, blue in clear blue) or show only equalised. The later
+/// steps on the located crop find them: two in one channel, two equalised in grey.
+#[test]
+fn far_boards_seen_in_one_channel_are_found_on_the_located_crop() {
+    let dir = Path::new(env!("CARGO_TARGET_TMPDIR")).join("board-search-channels");
+    std::fs::create_dir_all(&dir).unwrap();
+    let photos: Vec<(PathBuf, Vec<[f64; 2]>)> = [(5u64, 8usize), (6, 9), (9, 7), (14, 9)]
+        .into_par_iter()
+        .map(|(seed, i)| {
+            let set = VarietySet::plan(Kind::Calibration, seed, None, 4000).unwrap();
+            let photo = set.render(i);
+            let Some(TargetTruth::Board { corners_px, .. }) = &photo.truth.target else {
+                panic!("seed {seed} photo {i} has no board");
+            };
+            let name = format!("set{seed}_{i:02}");
+            calib_targets::write_photo(&dir, &name, &photo.image, photo.truth.effects.jpeg_quality, &photo.truth)
+                .unwrap();
+            (dir.join(format!("{name}.jpg")), corners_px.clone())
+        })
+        .collect();
+    for (path, truth) in &photos {
+        let found = search(path, 14, 10, truth);
+        println!("{}: {:?}", path.display(), found.as_ref().map(|r| (r.step, r.median_px(), r.worst_px())));
+        let r = found.unwrap_or_else(|| panic!("{}: no board found", path.display()));
+        assert!(matches!(r.step, SearchStep::LocatedAgain { .. }), "{}: found by {:?}", path.display(), r.step);
+        assert!(r.median_px() < 0.3, "{}: corners {:.2} px from the truth", path.display(), r.median_px());
+        // A corner under the dot, a glint or a laminate's sheen refines off (set5_08, under
+        // a sheen: 5 of 140 over 1 px, worst 4 px; set9_07, at 2.75 m in murky green water
+        // at JPEG quality 76: 9, worst 12 px); the pose fit weighs 140 corners and its
+        // reprojection gate deals with worse.
+        assert!(r.beyond(1.0) <= 10, "{}: {} corners over 1 px from the truth", path.display(), r.beyond(1.0));
+    }
 }

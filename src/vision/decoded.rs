@@ -94,6 +94,23 @@ impl Photo {
         }
     }
 
+    /// Colour channel `channel` (0 red, 1 green, 2 blue) of the region `crop` of the photo at
+    /// 1/`factor` size (a power of two), in that size's pixels: the same pixels as
+    /// [`Photo::reduced_grey`]'s over `crop`, in one channel.
+    pub fn channel_crop(&self, crop: Rect, factor: u32, channel: u8) -> opencv::Result<Mat> {
+        let f = factor.max(1) as i32;
+        let full = Rect::new(crop.x * f, crop.y * f, crop.width * f, crop.height * f);
+        let mut plane = Mat::default();
+        // BGR order: red is the last plane.
+        opencv::core::extract_channel(&Mat::roi(&*self.bgr, full)?, &mut plane, 2 - channel.min(2) as i32)?;
+        let mut f = f;
+        while f > 1 {
+            plane = halve(&plane, CV_8UC1)?;
+            f /= 2;
+        }
+        Ok(plane)
+    }
+
     /// The photo scaled to `width_px` wide (at most its own width), RGB, for a report.
     pub fn thumbnail(&self, width_px: u32) -> opencv::Result<Kept> {
         let (w, h) = (self.width(), self.height());

@@ -8,7 +8,9 @@ mod intrinsics;
 mod pose;
 mod slate;
 
-pub use board::{find_checkerboard, local_square_px, refine_corners, search_plan, BoardSearch, SearchStep};
+pub use board::{
+    find_checkerboard, local_square_px, refine_corners, search_plan, BoardSearch, CropDetector, CropImage, SearchStep,
+};
 pub use decoded::Photo;
 pub use intrinsics::{calibrate_intrinsics, IntrinsicsSolve, SolveOptions};
 pub use pose::{solve_pose, TargetPose};
