@@ -294,7 +294,7 @@ impl RoiMaps {
     fn new(img: &ColourView, roi: Roi, params: &DotDetectorParams, squares: &[[Vec2; 4]]) -> RoiMaps {
         let weights = params.colour.matched_weights(scene_samples(img, roi), SCENE_NOISE_LEVELS);
         let lit = lit_channels(&params.colour);
-        let (g, saturated) = laser_contrast(img, roi, weights, lit, params.max_area_px);
+        let (g, saturated) = laser_contrast(img, roi, weights, lit, largest_core_px(params.max_area_px, squares));
         let mut excess = minus_local_background(&g, roi, params.background_radius_px);
         board_background(&g, roi, squares, &mut excess);
         let sigma = robust_noise(&excess);
@@ -328,6 +328,30 @@ impl RoiMaps {
         }
         pixels
     }
+}
+
+/// Largest clipped region taken for a dot's core, pixels: the detector's dot size, and on a
+/// board at most [`CORE_SQUARE_SHARE`] of its median square. A bright square whose green
+/// clips all over is no core, yet at 1.5 m it is 7 000 px, within a near dot's 20 000: a
+/// dot on it merged with it into one blob whose colour was the square's (tuning calibration
+/// seeds 2 and 9).
+fn largest_core_px(max_area_px: usize, squares: &[[Vec2; 4]]) -> usize {
+    let mut areas: Vec<f64> = squares.iter().map(quad_area).collect();
+    if areas.is_empty() {
+        return max_area_px;
+    }
+    let mid = areas.len() / 2;
+    let median = *areas.select_nth_unstable_by(mid, |a, b| a.total_cmp(b)).1;
+    max_area_px.min((CORE_SQUARE_SHARE * median) as usize)
+}
+
+/// The share of a board's square a dot's clipped core may cover: a dot at 0.55 m clips
+/// about 270 px, its square there 52 000 px.
+const CORE_SQUARE_SHARE: f64 = 0.25;
+
+/// Area of a quad whose corners go round it, pixels squared (the shoelace formula).
+fn quad_area(q: &[Vec2; 4]) -> f64 {
+    0.5 * (0..4).map(|i| q[i].x * q[(i + 1) % 4].y - q[(i + 1) % 4].x * q[i].y).sum::<f64>().abs()
 }
 
 /// Noise per channel the scene-adapted map keeps as its floor, 8-bit levels: a scene with
@@ -573,12 +597,34 @@ pub(super) type BlobBox = (usize, usize, usize, usize);
 struct BlobMeasures {
     /// Peak contrast of its unclipped pixels (the threshold if it has none), 8-bit levels.
     peak: f64,
-    /// Matched-filter SNR.
+    /// Matched-filter SNR, clipped pixels counted at `peak`.
     snr: f64,
     /// Pixels at or above half the peak, or clipped.
     core_pixels: usize,
     saturated_pixels: usize,
     bbox: BlobBox,
+}
+
+impl BlobMeasures {
+    /// The SNR with the clipped pixels counted at `core_levels` where that is more than the
+    /// peak they were counted at.
+    fn snr_with_core_at(&self, core_levels: f64, sigma: f64, area_px: usize) -> f64 {
+        let lift = (core_levels - self.peak).max(0.0) * self.saturated_pixels as f64;
+        self.snr + lift / (sigma * (area_px as f64).sqrt())
+    }
+}
+
+/// The contrast a clipped core has at least: its fringe's along the map's colour
+/// (`weights`), 8-bit levels; 0 without a clipped pixel. A core clipped throughout shows no
+/// contrast of its own and counted only at the threshold, so a near dot washed white on a
+/// bright cyan square (1 059 levels at 0.93 m, fringe 75 levels over the square) ranked
+/// below eight algae tufts off the board and was cut (tuning calibration seed 9). A glint's
+/// fringe is white, which the map's weights remove: it gains nothing.
+fn fringe_contrast(weights: [f64; 3], fringe_excess: [f64; 3], saturated_px: usize) -> f64 {
+    if saturated_px == 0 {
+        return 0.0;
+    }
+    (0..3).map(|c| weights[c] * fringe_excess[c]).sum::<f64>().max(0.0)
 }
 
 /// The dot candidate a labelled blob makes, or `None` when it is no dot (too small or too
@@ -610,6 +656,11 @@ fn blob_candidate(
     if score.sigmas < params.min_colour_sigmas {
         return None;
     }
+    let snr = m.snr_with_core_at(
+        fringe_contrast(maps.weights, colour.excess_rgb, m.saturated_pixels),
+        maps.sigma,
+        pixels.len(),
+    );
     // Centred on the dot's own size (at half its peak), not its halo's: against a board
     // square's level a near dot's halo reaches the threshold 30 px out, and a disc that
     // wide took in a bubble 42 px away and moved the centre 12 px (tuning seed 2).
@@ -632,7 +683,7 @@ fn blob_candidate(
         .flatten();
     Some(DotCandidate {
         pixel: centre,
-        snr: m.snr,
+        snr,
         peak_green: m.peak,
         radius_px,
         core_radius_px,
@@ -948,6 +999,86 @@ mod tests {
         let view = ColourView { width: w, height: h, stride: w * 3, order: ChannelOrder::Rgb, data: &data };
         let c = find_dot_candidates(&view, &SearchRegion::default(), &p, 8);
         assert!(c.is_empty(), "the clipped square alone gave candidates: {c:?}");
+    }
+
+    /// A 9 x 6 board of 60 px squares with a near dot on the one white square whose green
+    /// clips all over (3 600 px, within the 20 000 px a near dot's core may cover, but no
+    /// dot's on a board of this size): the clipped square is the surface's, and the dot is
+    /// found at its own centre rather than merged with its square.
+    #[test]
+    fn a_dot_on_a_board_whose_white_squares_clip_is_not_merged_with_its_square() {
+        let (w, h, side) = (600usize, 420usize, 60usize);
+        let truth = Vec2::new(273.6, 151.2);
+        let mut data = vec![0u8; w * h * 3];
+        for y in 0..h {
+            for x in 0..w {
+                let white = ((x / side) + (y / side)) % 2 == 0;
+                // The lamp lights the dot's square most: its green alone clips.
+                let lit = (x / side, y / side) == (4, 2);
+                let [r, g, b] = match (white, lit) {
+                    (true, true) => [110.0, 255.0, 225.0],
+                    (true, false) => [95.0, 225.0, 200.0],
+                    _ => [25.0, 55.0, 60.0],
+                };
+                let d2 = (x as f64 - truth.x).powi(2) + (y as f64 - truth.y).powi(2);
+                let dot = 600.0 * (-d2 / (2.0 * 4.0f64.powi(2))).exp();
+                let noise = (((x * 31 + y * 17) % 7) as f64 - 3.0) * 0.8;
+                let i = (y * w + x) * 3;
+                data[i] = (r + 0.3 * dot + noise).clamp(0.0, 255.0) as u8;
+                data[i + 1] = (g + dot + noise).clamp(0.0, 255.0) as u8;
+                data[i + 2] = (b + 0.3 * dot + noise).clamp(0.0, 255.0) as u8;
+            }
+        }
+        let view = ColourView { width: w, height: h, stride: w * 3, order: ChannelOrder::Rgb, data: &data };
+        let (cols, rows) = (9usize, 6usize);
+        let corners: Vec<Vec2> = (0..cols * rows)
+            .map(|k| Vec2::new((side * (1 + k % cols)) as f64, (side * (1 + k / cols)) as f64))
+            .collect();
+        let squares = crate::dot::on_target::board_squares(&corners, cols, rows);
+        assert_eq!(largest_core_px(20_000, &squares), 900, "a quarter of a 60 px square");
+        let region = SearchRegion {
+            polygon: vec![Vec2::new(0.0, 0.0), Vec2::new(599.0, 0.0), Vec2::new(599.0, 419.0), Vec2::new(0.0, 419.0)],
+            band: None,
+            squares,
+        };
+        let c = find_dot_candidates(&view, &region, &DotDetectorParams::default(), 8);
+        let dot = c.iter().find(|c| (c.pixel - truth).norm() < 1.0);
+        assert!(dot.is_some_and(|d| d.saturated_core), "no candidate at the dot: {c:?}");
+    }
+
+    /// A near dot washed white on a surface whose green clips all over (30 000 px, the
+    /// background's clipping, not a core): the dot shows only in red and blue, and its own
+    /// core, where all three clip, is the whole blob. Counted at the threshold, that core
+    /// ranked below a faint green patch on the unclipped half of the photo, and a cap of one
+    /// candidate lost it (tuning calibration seed 9: below eight algae tufts, a cap of
+    /// eight). Counted at its fringe's contrast (its red and blue seen along the laser's
+    /// colour), it ranks first.
+    #[test]
+    fn a_washed_white_dot_outranks_a_faint_green_patch() {
+        let (w, h) = (300usize, 200usize);
+        let truth = Vec2::new(70.3, 100.6);
+        let patch = Vec2::new(225.0, 100.0);
+        let mut data = vec![0u8; w * h * 3];
+        for y in 0..h {
+            for x in 0..w {
+                let d2 = (x as f64 - truth.x).powi(2) + (y as f64 - truth.y).powi(2);
+                let dot = 900.0 * (-d2 / (2.0 * 2.5f64.powi(2))).exp();
+                let p2 = (x as f64 - patch.x).powi(2) + (y as f64 - patch.y).powi(2);
+                let green = 30.0 * (-p2 / (2.0 * 7.0f64.powi(2))).exp();
+                let noise = (((x * 31 + y * 17) % 7) as f64 - 3.0) * 0.8;
+                let [r, g, b] = if x < 150 { [70.0, 255.0, 200.0] } else { [60.0, 180.0, 190.0] };
+                let i = (y * w + x) * 3;
+                data[i] = (r + 0.3 * dot + 0.2 * green + noise).clamp(0.0, 255.0) as u8;
+                data[i + 1] = (g + dot + green + noise).clamp(0.0, 255.0) as u8;
+                data[i + 2] = (b + 0.3 * dot + 0.3 * green + noise).clamp(0.0, 255.0) as u8;
+            }
+        }
+        let view = ColourView { width: w, height: h, stride: w * 3, order: ChannelOrder::Rgb, data: &data };
+        let all = find_dot_candidates(&view, &SearchRegion::default(), &DotDetectorParams::default(), 8);
+        assert!(all.iter().any(|c| (c.pixel - patch).norm() < 2.0), "the patch is a candidate too: {all:?}");
+        let best = find_dot_candidates(&view, &SearchRegion::default(), &DotDetectorParams::default(), 1);
+        assert!(best.len() == 1 && (best[0].pixel - truth).norm() < 1.0, "{all:?}");
+        assert!(best[0].saturated_core);
     }
 
     #[test]
