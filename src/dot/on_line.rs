@@ -365,7 +365,7 @@ pub fn judge_candidate(
 /// Why a blob's size or signal cannot be a dot's at depth `z_m`; `None` when they can. A
 /// clipped core is bright enough for any distance; it blooms, but only so far
 /// ([`BLOOM_FACTOR`]).
-fn misfit(camera: &CameraModel, c: &DotCandidate, z_m: f64) -> Option<Refusal> {
+pub(crate) fn misfit(camera: &CameraModel, c: &DotCandidate, z_m: f64) -> Option<Refusal> {
     // A matched filter's SNR grows with the blob's linear size at a given level.
     let scale = camera.width_px as f64 / 4000.0;
     let smallest = 0.5 * camera.fx_px * BEAM_MIN_RADIUS_M / z_m.max(0.05);
