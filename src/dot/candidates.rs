@@ -94,6 +94,10 @@ pub struct DotCandidate {
     pub saturated_core: bool,
     /// Pixels of the blob with a clipped channel.
     pub saturated_px: usize,
+    /// Pixels of the blob where all three channels clip. A bright dot's own channel clips
+    /// far out in its glow, the other two only at its centre; a glint or a sun fleck is
+    /// white throughout its clipped core.
+    pub white_px: usize,
     /// Contrast along the laser's colour over the local background, less the off-colour
     /// part, in noise sigmas ([`LaserColourModel::score`]), scored on the blob's unclipped
     /// pixels and, for a clipped core, its fringe.
@@ -681,6 +685,13 @@ fn blob_candidate(
             outline_roughness(&map, at, m.peak, maps.sigma, 3.0 * core_radius_px + 4.0)
         })
         .flatten();
+    let white_px = pixels
+        .iter()
+        .filter(|&&i| {
+            let (r, g, b) = img.rgb(maps.roi.x0 + i % maps.roi.w, maps.roi.y0 + i / maps.roi.w);
+            r.min(g).min(b) >= CLIPPED
+        })
+        .count();
     Some(DotCandidate {
         pixel: centre,
         snr,
@@ -689,6 +700,7 @@ fn blob_candidate(
         core_radius_px,
         saturated_core: m.saturated_pixels > 0,
         saturated_px: m.saturated_pixels,
+        white_px,
         colour_score: score.sigmas,
         colour_angle_rad: score.angle_rad,
         colour_angle_sigma_rad: score.angle_sigma_rad,

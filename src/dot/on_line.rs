@@ -388,9 +388,22 @@ pub(crate) fn misfit(camera: &CameraModel, c: &DotCandidate, z_m: f64) -> Option
 /// wherever it lies; a dot is small at its own distance.
 pub fn too_large(camera: &CameraModel, c: &DotCandidate, z_m: f64) -> bool {
     if c.saturated_core {
-        c.core_radius_px > BLOOM_FACTOR * largest_radius_px(camera, z_m)
+        clipped_radius_px(c) > BLOOM_FACTOR * largest_radius_px(camera, z_m)
     } else {
         c.core_radius_px > largest_core_radius_px(camera, z_m)
+    }
+}
+
+/// The size a clipped core is judged by, pixels: its white part's equivalent radius (where
+/// all three channels clip) when it has one, else its core's. A near dot's glow clips the
+/// laser's own channel 36-45 px out on a bright square (tuning calibration seeds 17, 22
+/// and 23, dots of 700-2 300 levels at 0.6-0.9 m, refused as too large), while only its
+/// centre is white; a glint or a sun fleck is white throughout.
+fn clipped_radius_px(c: &DotCandidate) -> f64 {
+    if c.white_px > 0 {
+        (c.white_px as f64 / core::f64::consts::PI).sqrt()
+    } else {
+        c.core_radius_px
     }
 }
 
@@ -517,6 +530,13 @@ mod tests {
             assert_eq!(misfit(&camera, &blob(core * 1.2, 1.1 * core, false), z), Some(Refusal::TooLarge), "z {z}");
             assert_eq!(misfit(&camera, &blob(1.5 * widest, 1.4 * widest, true), z), None, "z {z}: bloom");
             assert_eq!(misfit(&camera, &blob(2.2 * widest, 1.9 * widest, true), z), Some(Refusal::TooLarge), "z {z}");
+            // The same clipped blob judged by its white part: a dot's glow clips only the
+            // laser's channel, a glint is white throughout.
+            let area = |radius_px: f64| (std::f64::consts::PI * radius_px * radius_px).round() as usize;
+            let glow = DotCandidate { white_px: area(0.5 * widest), ..blob(2.2 * widest, 1.9 * widest, true) };
+            assert_eq!(misfit(&camera, &glow, z), None, "z {z}: a white centre in a clipped glow");
+            let glint = DotCandidate { white_px: area(1.9 * widest), ..blob(2.2 * widest, 1.9 * widest, true) };
+            assert_eq!(misfit(&camera, &glint, z), Some(Refusal::TooLarge), "z {z}: white throughout");
         }
     }
 

@@ -270,6 +270,7 @@ mod tests {
             core_radius_px: 2.0,
             saturated_core: false,
             saturated_px: 0,
+            white_px: 0,
             colour_score: score,
             colour_angle_rad: 0.1,
             colour_angle_sigma_rad: 0.02,
