@@ -59,7 +59,8 @@ const HALO_FLOOR_PX: f64 = 2.5;
 const CORE_BLUR_PX: f64 = 2.5;
 /// How far blooming may widen a clipped core beyond the widest unclipped dot at its
 /// distance: a dot's light falls with distance, so a wide clipped blob that implies a far
-/// dot is a sun fleck, a glint or a lamp. Tuning scenes: true clipped dots reach 1.4,
+/// dot is a sun fleck, a glint or a lamp. Tuning scenes (core radii, before a clipped blob
+/// was judged by its white part, [`clipped_radius_px`]): true clipped dots reach 1.4,
 /// clipped impostors 1.96-2.4.
 const BLOOM_FACTOR: f64 = 1.75;
 /// Smallest beam radius at the laser's exit, metres; a dot's blob is at least half the
