@@ -875,24 +875,61 @@ fn measure_blob(maps: &RoiMaps, pixels: &[usize]) -> Option<BlobMeasures> {
 mod tests {
     use super::*;
 
-    /// A blue-green background with a Gaussian green dot and a white glint.
-    fn synthetic(dot: Vec2, glint: Vec2, with_core: bool) -> (Vec<u8>, usize, usize) {
-        let (w, h) = (200usize, 150usize);
+    /// A `w x h` RGB image whose pixel (x, y) is `colour(x, y)`, levels clipped to 0-255 as a
+    /// sensor clips them.
+    fn paint(w: usize, h: usize, colour: impl Fn(usize, usize) -> [f64; 3]) -> Vec<u8> {
         let mut data = vec![0u8; w * h * 3];
         for y in 0..h {
             for x in 0..w {
-                let d2 = (x as f64 - dot.x).powi(2) + (y as f64 - dot.y).powi(2);
-                let halo = 140.0 * (-d2 / (2.0 * 4.0f64.powi(2))).exp();
-                let core = if with_core { 300.0 * (-d2 / (2.0 * 1.5f64.powi(2))).exp() } else { 0.0 };
-                let gd2 = (x as f64 - glint.x).powi(2) + (y as f64 - glint.y).powi(2);
-                let gl = 400.0 * (-gd2 / (2.0 * 3.0f64.powi(2))).exp();
-                let (r, g, b) = (20.0 + core + gl, 90.0 + halo + core + gl, 100.0 + core + gl);
                 let i = (y * w + x) * 3;
-                data[i] = r.min(255.0) as u8;
-                data[i + 1] = g.min(255.0) as u8;
-                data[i + 2] = b.min(255.0) as u8;
+                for (c, v) in colour(x, y).into_iter().enumerate() {
+                    data[i + c] = v.clamp(0.0, 255.0) as u8;
+                }
             }
         }
+        data
+    }
+
+    fn view(data: &[u8], w: usize, h: usize) -> ColourView<'_> {
+        ColourView { width: w, height: h, stride: w * 3, order: ChannelOrder::Rgb, data }
+    }
+
+    /// The level a Gaussian spot of `peak` levels and `sigma_px` centred at `centre` has at
+    /// pixel (x, y).
+    fn spot(x: usize, y: usize, centre: Vec2, peak: f64, sigma_px: f64) -> f64 {
+        let d2 = (x as f64 - centre.x).powi(2) + (y as f64 - centre.y).powi(2);
+        peak * (-d2 / (2.0 * sigma_px.powi(2))).exp()
+    }
+
+    /// A fixed grain of -2.4 to +2.4 levels.
+    fn grain(x: usize, y: usize) -> f64 {
+        (((x * 31 + y * 17) % 7) as f64 - 3.0) * 0.8
+    }
+
+    /// The squares of a board of 9 x 6 inner corners at multiples of `side` px (where four
+    /// squares meet), its border squares extrapolated to the image's edges.
+    fn board_9x6(side: usize) -> Vec<[Vec2; 4]> {
+        let (cols, rows) = (9usize, 6usize);
+        let corners: Vec<Vec2> = (0..cols * rows)
+            .map(|k| Vec2::new((side * (1 + k % cols)) as f64, (side * (1 + k / cols)) as f64))
+            .collect();
+        crate::dot::on_target::board_squares(&corners, cols, rows)
+    }
+
+    /// Whether pixel (x, y) lies on a white square of a board of `side` px squares.
+    fn on_white(x: usize, y: usize, side: usize) -> bool {
+        ((x / side) + (y / side)) % 2 == 0
+    }
+
+    /// A blue-green background with a Gaussian green dot and a white glint.
+    fn synthetic(dot: Vec2, glint: Vec2, with_core: bool) -> (Vec<u8>, usize, usize) {
+        let (w, h) = (200usize, 150usize);
+        let data = paint(w, h, |x, y| {
+            let halo = spot(x, y, dot, 140.0, 4.0);
+            let core = if with_core { spot(x, y, dot, 300.0, 1.5) } else { 0.0 };
+            let gl = spot(x, y, glint, 400.0, 3.0);
+            [20.0 + core + gl, 90.0 + halo + core + gl, 100.0 + core + gl]
+        });
         (data, w, h)
     }
 
@@ -900,8 +937,7 @@ mod tests {
     fn finds_the_green_dot_not_the_brighter_white_glint() {
         let truth = Vec2::new(61.3, 80.7);
         let (data, w, h) = synthetic(truth, Vec2::new(150.0, 40.0), true);
-        let view = ColourView { width: w, height: h, stride: w * 3, order: ChannelOrder::Rgb, data: &data };
-        let c = find_dot_candidates(&view, &SearchRegion::default(), &DotDetectorParams::default(), 4);
+        let c = find_dot_candidates(&view(&data, w, h), &SearchRegion::default(), &DotDetectorParams::default(), 4);
         assert_eq!(c.len(), 1, "{c:?}");
         assert!(c[0].saturated_core);
         assert!((c[0].pixel - truth).norm() < 0.15, "{:?}", c[0].pixel);
@@ -914,21 +950,13 @@ mod tests {
     fn a_dot_beside_a_square_edge_keeps_its_colour() {
         let (w, h) = (200usize, 150usize);
         let truth = Vec2::new(112.4, 75.6);
-        let mut data = vec![0u8; w * h * 3];
-        for y in 0..h {
-            for x in 0..w {
-                let d2 = (x as f64 - truth.x).powi(2) + (y as f64 - truth.y).powi(2);
-                let dot = 70.0 * (-d2 / (2.0 * 2.5f64.powi(2))).exp();
-                let [r, g, b] = if x < 100 { [20.0, 30.0, 35.0] } else { [68.0, 190.0, 240.0] };
-                let i = (y * w + x) * 3;
-                let noise = ((x * 7 + y * 13) % 5) as f64 - 2.0;
-                data[i] = (r + 0.2 * dot + noise).clamp(0.0, 255.0) as u8;
-                data[i + 1] = (g + dot + noise).clamp(0.0, 255.0) as u8;
-                data[i + 2] = (b + 0.3 * dot + noise).clamp(0.0, 255.0) as u8;
-            }
-        }
-        let view = ColourView { width: w, height: h, stride: w * 3, order: ChannelOrder::Rgb, data: &data };
-        let c = find_dot_candidates(&view, &SearchRegion::default(), &DotDetectorParams::default(), 4);
+        let data = paint(w, h, |x, y| {
+            let dot = spot(x, y, truth, 70.0, 2.5);
+            let [r, g, b] = if x < 100 { [20.0, 30.0, 35.0] } else { [68.0, 190.0, 240.0] };
+            let noise = ((x * 7 + y * 13) % 5) as f64 - 2.0;
+            [r + 0.2 * dot + noise, g + dot + noise, b + 0.3 * dot + noise]
+        });
+        let c = find_dot_candidates(&view(&data, w, h), &SearchRegion::default(), &DotDetectorParams::default(), 4);
         let dot = c.iter().find(|c| (c.pixel - truth).norm() < 1.0);
         let dot = dot.unwrap_or_else(|| panic!("no candidate at the dot: {c:?}"));
         assert!(dot.colour_angle_rad < 0.3, "{dot:?}");
@@ -941,35 +969,20 @@ mod tests {
     fn a_dot_on_a_board_in_green_water_is_found_against_its_square() {
         let (w, h, side) = (400usize, 300usize, 40usize);
         let truth = Vec2::new(171.3, 128.6);
-        let mut data = vec![0u8; w * h * 3];
-        for y in 0..h {
-            for x in 0..w {
-                let white = ((x / side) + (y / side)) % 2 == 0;
-                let [r, g, b] = if white { [82.0, 141.0, 27.0] } else { [48.0, 70.0, 18.0] };
-                let d2 = (x as f64 - truth.x).powi(2) + (y as f64 - truth.y).powi(2);
-                let dot = 70.0 * (-d2 / (2.0 * 3.0f64.powi(2))).exp();
-                let noise = (((x * 31 + y * 17) % 7) as f64 - 3.0) * 0.8;
-                let i = (y * w + x) * 3;
-                data[i] = (r + 0.19 * dot + noise).clamp(0.0, 255.0) as u8;
-                data[i + 1] = (g + dot + noise).clamp(0.0, 255.0) as u8;
-                data[i + 2] = (b + 0.42 * dot + noise).clamp(0.0, 255.0) as u8;
-            }
-        }
-        let view = ColourView { width: w, height: h, stride: w * 3, order: ChannelOrder::Rgb, data: &data };
-        // Inner corners where four squares meet, 9 x 6, at multiples of the side.
-        let (cols, rows) = (9usize, 6usize);
-        let corners: Vec<Vec2> = (0..cols * rows)
-            .map(|k| Vec2::new((side * (1 + k % cols)) as f64, (side * (1 + k / cols)) as f64))
-            .collect();
-        let squares = crate::dot::on_target::board_squares(&corners, cols, rows);
-        assert_eq!(squares.len(), (cols + 1) * (rows + 1));
+        let data = paint(w, h, |x, y| {
+            let [r, g, b] = if on_white(x, y, side) { [82.0, 141.0, 27.0] } else { [48.0, 70.0, 18.0] };
+            let (dot, noise) = (spot(x, y, truth, 70.0, 3.0), grain(x, y));
+            [r + 0.19 * dot + noise, g + dot + noise, b + 0.42 * dot + noise]
+        });
+        let squares = board_9x6(side);
+        assert_eq!(squares.len(), 10 * 7);
         assert_eq!(squares[0][0], Vec2::new(0.0, 0.0), "the border squares are extrapolated");
         let region = SearchRegion {
             polygon: vec![Vec2::new(0.0, 0.0), Vec2::new(399.0, 0.0), Vec2::new(399.0, 279.0), Vec2::new(0.0, 279.0)],
             band: None,
             squares,
         };
-        let c = find_dot_candidates(&view, &region, &DotDetectorParams::default(), 8);
+        let c = find_dot_candidates(&view(&data, w, h), &region, &DotDetectorParams::default(), 8);
         let dot = c.iter().find(|c| (c.pixel - truth).norm() < 0.5);
         assert!(dot.is_some(), "{c:?}");
         assert_eq!(c.len(), 1, "no square edge or corner is a candidate: {c:?}");
@@ -985,31 +998,21 @@ mod tests {
         let (w, h) = (400usize, 300usize);
         let truth = Vec2::new(201.4, 148.3);
         let render = |with_dot: bool| {
-            let mut data = vec![0u8; w * h * 3];
-            for y in 0..h {
-                for x in 0..w {
-                    let square = (100..300).contains(&x) && (50..250).contains(&y);
-                    let d2 = (x as f64 - truth.x).powi(2) + (y as f64 - truth.y).powi(2);
-                    let dot = if with_dot { 180.0 * (-d2 / (2.0 * 5.0f64.powi(2))).exp() } else { 0.0 };
-                    let noise = (((x * 31 + y * 17) % 7) as f64 - 3.0) * 0.8;
-                    let [r, g, b] = if square { [150.0, 255.0, 255.0] } else { [40.0, 120.0, 110.0] };
-                    let i = (y * w + x) * 3;
-                    data[i] = (r + dot + noise).clamp(0.0, 255.0) as u8;
-                    data[i + 1] = (g + dot + noise).clamp(0.0, 255.0) as u8;
-                    data[i + 2] = (b + 0.4 * dot + noise).clamp(0.0, 255.0) as u8;
-                }
-            }
-            data
+            paint(w, h, |x, y| {
+                let square = (100..300).contains(&x) && (50..250).contains(&y);
+                let dot = if with_dot { spot(x, y, truth, 180.0, 5.0) } else { 0.0 };
+                let noise = grain(x, y);
+                let [r, g, b] = if square { [150.0, 255.0, 255.0] } else { [40.0, 120.0, 110.0] };
+                [r + dot + noise, g + dot + noise, b + 0.4 * dot + noise]
+            })
         };
         let p = DotDetectorParams::default();
         let data = render(true);
-        let view = ColourView { width: w, height: h, stride: w * 3, order: ChannelOrder::Rgb, data: &data };
-        let c = find_dot_candidates(&view, &SearchRegion::default(), &p, 8);
+        let c = find_dot_candidates(&view(&data, w, h), &SearchRegion::default(), &p, 8);
         let dot = c.iter().find(|c| (c.pixel - truth).norm() < 1.0);
         assert!(dot.is_some_and(|d| d.saturated_core), "no candidate at the dot: {c:?}");
         let data = render(false);
-        let view = ColourView { width: w, height: h, stride: w * 3, order: ChannelOrder::Rgb, data: &data };
-        let c = find_dot_candidates(&view, &SearchRegion::default(), &p, 8);
+        let c = find_dot_candidates(&view(&data, w, h), &SearchRegion::default(), &p, 8);
         assert!(c.is_empty(), "the clipped square alone gave candidates: {c:?}");
     }
 
@@ -1021,39 +1024,25 @@ mod tests {
     fn a_dot_on_a_board_whose_white_squares_clip_is_not_merged_with_its_square() {
         let (w, h, side) = (600usize, 420usize, 60usize);
         let truth = Vec2::new(273.6, 151.2);
-        let mut data = vec![0u8; w * h * 3];
-        for y in 0..h {
-            for x in 0..w {
-                let white = ((x / side) + (y / side)) % 2 == 0;
-                // The lamp lights the dot's square most: its green alone clips.
-                let lit = (x / side, y / side) == (4, 2);
-                let [r, g, b] = match (white, lit) {
-                    (true, true) => [110.0, 255.0, 225.0],
-                    (true, false) => [95.0, 225.0, 200.0],
-                    _ => [25.0, 55.0, 60.0],
-                };
-                let d2 = (x as f64 - truth.x).powi(2) + (y as f64 - truth.y).powi(2);
-                let dot = 600.0 * (-d2 / (2.0 * 4.0f64.powi(2))).exp();
-                let noise = (((x * 31 + y * 17) % 7) as f64 - 3.0) * 0.8;
-                let i = (y * w + x) * 3;
-                data[i] = (r + 0.3 * dot + noise).clamp(0.0, 255.0) as u8;
-                data[i + 1] = (g + dot + noise).clamp(0.0, 255.0) as u8;
-                data[i + 2] = (b + 0.3 * dot + noise).clamp(0.0, 255.0) as u8;
-            }
-        }
-        let view = ColourView { width: w, height: h, stride: w * 3, order: ChannelOrder::Rgb, data: &data };
-        let (cols, rows) = (9usize, 6usize);
-        let corners: Vec<Vec2> = (0..cols * rows)
-            .map(|k| Vec2::new((side * (1 + k % cols)) as f64, (side * (1 + k / cols)) as f64))
-            .collect();
-        let squares = crate::dot::on_target::board_squares(&corners, cols, rows);
+        let data = paint(w, h, |x, y| {
+            // The lamp lights the dot's square most: its green alone clips.
+            let lit = (x / side, y / side) == (4, 2);
+            let [r, g, b] = match (on_white(x, y, side), lit) {
+                (true, true) => [110.0, 255.0, 225.0],
+                (true, false) => [95.0, 225.0, 200.0],
+                _ => [25.0, 55.0, 60.0],
+            };
+            let (dot, noise) = (spot(x, y, truth, 600.0, 4.0), grain(x, y));
+            [r + 0.3 * dot + noise, g + dot + noise, b + 0.3 * dot + noise]
+        });
+        let squares = board_9x6(side);
         assert_eq!(largest_core_px(20_000, &squares), 900, "a quarter of a 60 px square");
         let region = SearchRegion {
             polygon: vec![Vec2::new(0.0, 0.0), Vec2::new(599.0, 0.0), Vec2::new(599.0, 419.0), Vec2::new(0.0, 419.0)],
             band: None,
             squares,
         };
-        let c = find_dot_candidates(&view, &region, &DotDetectorParams::default(), 8);
+        let c = find_dot_candidates(&view(&data, w, h), &region, &DotDetectorParams::default(), 8);
         let dot = c.iter().find(|c| (c.pixel - truth).norm() < 1.0);
         assert!(dot.is_some_and(|d| d.saturated_core), "no candidate at the dot: {c:?}");
     }
@@ -1070,22 +1059,12 @@ mod tests {
         let (w, h) = (300usize, 200usize);
         let truth = Vec2::new(70.3, 100.6);
         let patch = Vec2::new(225.0, 100.0);
-        let mut data = vec![0u8; w * h * 3];
-        for y in 0..h {
-            for x in 0..w {
-                let d2 = (x as f64 - truth.x).powi(2) + (y as f64 - truth.y).powi(2);
-                let dot = 900.0 * (-d2 / (2.0 * 2.5f64.powi(2))).exp();
-                let p2 = (x as f64 - patch.x).powi(2) + (y as f64 - patch.y).powi(2);
-                let green = 30.0 * (-p2 / (2.0 * 7.0f64.powi(2))).exp();
-                let noise = (((x * 31 + y * 17) % 7) as f64 - 3.0) * 0.8;
-                let [r, g, b] = if x < 150 { [70.0, 255.0, 200.0] } else { [60.0, 180.0, 190.0] };
-                let i = (y * w + x) * 3;
-                data[i] = (r + 0.3 * dot + 0.2 * green + noise).clamp(0.0, 255.0) as u8;
-                data[i + 1] = (g + dot + green + noise).clamp(0.0, 255.0) as u8;
-                data[i + 2] = (b + 0.3 * dot + 0.3 * green + noise).clamp(0.0, 255.0) as u8;
-            }
-        }
-        let view = ColourView { width: w, height: h, stride: w * 3, order: ChannelOrder::Rgb, data: &data };
+        let data = paint(w, h, |x, y| {
+            let (dot, green, noise) = (spot(x, y, truth, 900.0, 2.5), spot(x, y, patch, 30.0, 7.0), grain(x, y));
+            let [r, g, b] = if x < 150 { [70.0, 255.0, 200.0] } else { [60.0, 180.0, 190.0] };
+            [r + 0.3 * dot + 0.2 * green + noise, g + dot + green + noise, b + 0.3 * dot + 0.3 * green + noise]
+        });
+        let view = view(&data, w, h);
         let all = find_dot_candidates(&view, &SearchRegion::default(), &DotDetectorParams::default(), 8);
         assert!(all.iter().any(|c| (c.pixel - patch).norm() < 2.0), "the patch is a candidate too: {all:?}");
         let best = find_dot_candidates(&view, &SearchRegion::default(), &DotDetectorParams::default(), 1);
@@ -1097,7 +1076,7 @@ mod tests {
     fn region_and_band_exclude_the_dot() {
         let truth = Vec2::new(61.3, 80.7);
         let (data, w, h) = synthetic(truth, Vec2::new(150.0, 40.0), false);
-        let view = ColourView { width: w, height: h, stride: w * 3, order: ChannelOrder::Rgb, data: &data };
+        let view = view(&data, w, h);
         let p = DotDetectorParams::default();
         let right_half = SearchRegion {
             polygon: vec![
