@@ -7,11 +7,8 @@
 mod common;
 
 use calib_targets::scene::Water;
-use calib_targets::Checkerboard;
-use fslcal::camera::opencv_yaml;
-use fslcal::dot::candidates::DotDetectorParams;
-use fslcal::laser::fit::{Gates, Method};
-use fslcal::laser::pipeline::{calibrate, examine_photo, HandDots, LaserJob};
+use fslcal::laser::fit::Method;
+use fslcal::laser::pipeline::{calibrate, examine_photo};
 use std::time::{Duration, Instant};
 
 fn median(mut v: Vec<Duration>) -> Duration {
@@ -25,15 +22,7 @@ fn main() {
     eprintln!("rendering scenes (not timed)...");
     let set = common::laser_set("bench-laser", 16, 11, Water::Clear, 0);
     let no_board = common::render_set("bench-no-board", &[common::no_board_spec(7)]);
-    let (camera, _) = opencv_yaml::read(&set.camera_file).expect("camera file");
-    let job = LaserJob {
-        camera,
-        target: Checkerboard::fishsense().into(),
-        method: Method::Reprojection,
-        gates: Gates::default(),
-        detector: DotDetectorParams::default(),
-        hand_dots: HandDots::default(),
-    };
+    let job = common::board_job(&set.camera_file, Method::Reprojection);
     let threads = rayon::current_num_threads();
 
     let mut chain = Vec::new();

@@ -5,12 +5,11 @@
 //! dot is visible must use it. Photos whose board the finder loses at this size are not the
 //! dot search's to answer.
 
-use calib_targets::variety::{Kind, PhotoTruth, VarietySet, HELD_OUT_FIRST_SEED};
-use calib_targets::Checkerboard;
-use fslcal::camera::opencv_yaml;
-use fslcal::dot::candidates::DotDetectorParams;
-use fslcal::laser::fit::{Gates, Method};
-use fslcal::laser::pipeline::{calibrate, HandDots, LaserJob, PhotoStatus, SkipReason};
+mod common;
+
+use calib_targets::variety::{Kind, VarietySet, HELD_OUT_FIRST_SEED};
+use fslcal::laser::fit::Method;
+use fslcal::laser::pipeline::{calibrate, PhotoStatus, SkipReason};
 
 /// Held-out seeds of this test: after the bench's default ones (1 000 000 and 1 000 001).
 const SEED: u64 = HELD_OUT_FIRST_SEED + 8;
@@ -26,27 +25,13 @@ fn held_out_calibration_uses_only_right_dots() {
     let dir = tempfile::tempdir().expect("temp dir");
     let set = VarietySet::plan(Kind::Calibration, SEED, Some(10), 3000).expect("plan");
     let photos = set.write(dir.path(), &mut |_| {}).expect("render");
-    let (camera, _) = opencv_yaml::read(&dir.path().join("camera.yml")).expect("camera file");
-    let job = LaserJob {
-        camera,
-        target: Checkerboard::fishsense().into(),
-        method: Method::Reprojection,
-        gates: Gates::default(),
-        detector: DotDetectorParams::default(),
-        hand_dots: HandDots::default(),
-    };
+    let job = common::board_job(&dir.path().join("camera.yml"), Method::Reprojection);
     let cal = calibrate(&job, &photos, &|| {}).expect("the set calibrates");
     let (mut eligible, mut right) = (0, 0);
     for (i, report) in cal.photos.iter().enumerate() {
-        let text = std::fs::read_to_string(photos[i].with_extension("truth.json")).expect("truth file");
-        let truth: PhotoTruth = serde_json::from_str(&text).expect("truth parses");
+        let truth = common::variety_truth(&photos[i]);
         let board_found = !matches!(report.reason.as_ref().and_then(|r| r.kind()), Some(SkipReason::Target(_)));
-        if report.status == PhotoStatus::Used {
-            let dot = report.dot_px.expect("a used photo has a dot");
-            let t = truth.dot.as_ref().unwrap_or_else(|| panic!("{}: used, but no dot in the truth", report.file));
-            let err = (dot[0] - t.pixel[0]).hypot(dot[1] - t.pixel[1]);
-            assert!(err <= 2.0, "{}: a wrong dot used in the fit, {err:.1} px from the truth", report.file);
-        }
+        common::assert_used_dot_is_right(report, &truth);
         if board_found && truth.visible_dot().is_some() {
             eligible += 1;
             right += usize::from(report.status == PhotoStatus::Used);

@@ -4,11 +4,8 @@
 mod common;
 
 use calib_targets::scene::Water;
-use calib_targets::Checkerboard;
-use common::{laser_set, render_set, SceneSet};
-use fslcal::camera::opencv_yaml;
-use fslcal::dot::candidates::DotDetectorParams;
-use fslcal::laser::fit::{angle_deg, FitError, Gates, Method};
+use common::{board_job, laser_set, render_set, SceneSet};
+use fslcal::laser::fit::{angle_deg, FitError, Method};
 use fslcal::laser::pipeline::{calibrate, HandDots, LaserCalibration, LaserError, LaserJob};
 use fslcal_core::{LaserLine, Vec2};
 use std::sync::OnceLock;
@@ -24,15 +21,7 @@ fn murky() -> &'static SceneSet {
 }
 
 fn job(set: &SceneSet, method: Method) -> LaserJob {
-    let (camera, _) = opencv_yaml::read(&set.camera_file).expect("camera file");
-    LaserJob {
-        camera,
-        target: Checkerboard::fishsense().into(),
-        method,
-        gates: Gates::default(),
-        detector: DotDetectorParams::default(),
-        hand_dots: HandDots::default(),
-    }
+    board_job(&set.camera_file, method)
 }
 
 fn run(set: &SceneSet, job: &LaserJob) -> LaserCalibration {

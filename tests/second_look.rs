@@ -5,40 +5,26 @@
 //! sigmas, and both were used in the fit. Every dot the fit uses must be within 2 px of the
 //! truth, and the visible dots the second look finds on this set must still be used.
 
-use calib_targets::variety::{Kind, PhotoTruth, VarietySet};
-use calib_targets::Checkerboard;
-use fslcal::camera::opencv_yaml;
-use fslcal::dot::candidates::DotDetectorParams;
-use fslcal::laser::fit::{Gates, Method};
-use fslcal::laser::pipeline::{calibrate, DotSource, HandDots, LaserJob, PhotoStatus};
+mod common;
+
+use calib_targets::variety::{Kind, VarietySet};
+use fslcal::laser::fit::Method;
+use fslcal::laser::pipeline::{calibrate, DotSource, PhotoStatus};
 
 #[test]
 fn the_second_look_takes_no_noise_for_a_dot_too_faint_to_see() {
     let dir = tempfile::tempdir().expect("temp dir");
     let set = VarietySet::plan(Kind::Calibration, 12, None, 4000).expect("plan");
     let photos = set.write(dir.path(), &mut |_| {}).expect("render");
-    let (camera, _) = opencv_yaml::read(&dir.path().join("camera.yml")).expect("camera file");
-    let job = LaserJob {
-        camera,
-        target: Checkerboard::fishsense().into(),
-        method: Method::Reprojection,
-        gates: Gates::default(),
-        detector: DotDetectorParams::default(),
-        hand_dots: HandDots::default(),
-    };
+    let job = common::board_job(&dir.path().join("camera.yml"), Method::Reprojection);
     let cal = calibrate(&job, &photos, &|| {}).expect("the set calibrates");
     let (mut used, mut second_look) = (0, 0);
     for (i, report) in cal.photos.iter().enumerate() {
-        let text = std::fs::read_to_string(photos[i].with_extension("truth.json")).expect("truth file");
-        let truth: PhotoTruth = serde_json::from_str(&text).expect("truth parses");
         eprintln!("{}: {} ({:?})", report.file, report.status_text(), report.dot_source);
+        common::assert_used_dot_is_right(report, &common::variety_truth(&photos[i]));
         if report.status != PhotoStatus::Used {
             continue;
         }
-        let dot = report.dot_px.expect("a used photo has a dot");
-        let t = truth.dot.as_ref().unwrap_or_else(|| panic!("{}: used, but no dot in the truth", report.file));
-        let err = (dot[0] - t.pixel[0]).hypot(dot[1] - t.pixel[1]);
-        assert!(err <= 2.0, "{}: a wrong dot used in the fit, {err:.1} px from the truth", report.file);
         used += 1;
         second_look += usize::from(report.dot_source == Some(DotSource::DetectedNearPrediction));
     }

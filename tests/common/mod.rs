@@ -9,9 +9,15 @@ use calib_targets::scene::{
     laser_scene_set, render, render_slate, slate_scene_set, RenderedScene, SceneSpec, SceneTruth, SlateSpec,
     SlateTexture, Water,
 };
+use calib_targets::variety::PhotoTruth;
+use calib_targets::Checkerboard;
 use calib_targets::Slate;
 use calib_targets::{camera_yaml, write_fish, write_scene};
 use fslcal::calibration::camera_json;
+use fslcal::camera::opencv_yaml;
+use fslcal::dot::candidates::DotDetectorParams;
+use fslcal::laser::fit::{Gates, Method};
+use fslcal::laser::pipeline::{HandDots, LaserJob, PhotoReport, PhotoStatus};
 use fslcal_core::{CameraModel, LaserLine};
 use rayon::prelude::*;
 use serde_json::json;
@@ -205,4 +211,36 @@ pub fn link(from: &Path, to: &Path) {
     if std::fs::hard_link(from, to).is_err() {
         std::fs::copy(from, to).unwrap();
     }
+}
+
+/// The laser job a diver runs on photos of the FishSense board: the camera file
+/// `camera_file` (OpenCV YAML), default gates and detector, no dot given by hand.
+pub fn board_job(camera_file: &Path, method: Method) -> LaserJob {
+    let (camera, _) = opencv_yaml::read(camera_file).expect("camera file");
+    LaserJob {
+        camera,
+        target: Checkerboard::fishsense().into(),
+        method,
+        gates: Gates::default(),
+        detector: DotDetectorParams::default(),
+        hand_dots: HandDots::default(),
+    }
+}
+
+/// The ground truth written beside a rendered variety photo.
+pub fn variety_truth(photo: &Path) -> PhotoTruth {
+    let text = std::fs::read_to_string(photo.with_extension("truth.json")).expect("truth file");
+    serde_json::from_str(&text).expect("truth parses")
+}
+
+/// Panics when `report`'s photo is used with a dot over 2 px from the truth's, or with no
+/// dot in the truth: a wrong dot in the fit.
+pub fn assert_used_dot_is_right(report: &PhotoReport, truth: &PhotoTruth) {
+    if report.status != PhotoStatus::Used {
+        return;
+    }
+    let dot = report.dot_px.expect("a used photo has a dot");
+    let t = truth.dot.as_ref().unwrap_or_else(|| panic!("{}: used, but no dot in the truth", report.file));
+    let err = (dot[0] - t.pixel[0]).hypot(dot[1] - t.pixel[1]);
+    assert!(err <= 2.0, "{}: a wrong dot used in the fit, {err:.1} px from the truth", report.file);
 }
