@@ -203,12 +203,18 @@ impl HandDots {
 /// Dot candidates a photo keeps for the consensus and its report.
 const CANDIDATES_KEPT: usize = 8;
 
+/// Whether a dot's size is held to its distance on this job's target ([`too_large`]). Not
+/// on a slate: seen at 0.45 m on white in murky water, the dot blooms past the limit (tuning
+/// slate seed 1: cores of 34-51 px, limit 41 px).
+fn size_follows_distance(job: &LaserJob) -> bool {
+    job.target.surface() == Surface::Checkerboard
+}
+
 /// Whether a blob on a board is no larger than a dot at the depth where its ray meets the
 /// board ([`too_large`]): sun flecks and glints are large wherever they lie. A blob whose ray
-/// misses the plane passes. Every blob on a slate passes: seen at 0.45 m on white in murky
-/// water, the dot blooms past the limit (tuning slate seed 1: cores of 34-51 px, limit 41 px).
+/// misses the plane passes, and every blob on a slate ([`size_follows_distance`]).
 fn sized_like_a_dot(job: &LaserJob, plane: &Plane, c: &DotCandidate) -> bool {
-    job.target.surface() != Surface::Checkerboard
+    !size_follows_distance(job)
         || fit::dot_point(&job.camera, plane, c.pixel).is_none_or(|p| !too_large(&job.camera, c, p.z))
 }
 
@@ -271,8 +277,9 @@ fn observation(e: &PhotoEvidence) -> Option<DotObservation> {
 
 /// Second look for a photo whose dot was not found or disagreed with the first fit, near
 /// where `line` meets this photo's target (see [`near_prediction`]). What it finds must
-/// still be a dot at that distance ([`misfit`]: size, signal, outline) and carry at least
-/// [`SECOND_LOOK_MIN_COLOUR_SIGMAS`] of the laser's colour.
+/// still be a dot at that distance ([`misfit`]: size where [`size_follows_distance`],
+/// signal, outline) and carry at least [`SECOND_LOOK_MIN_COLOUR_SIGMAS`] of the laser's
+/// colour.
 fn search_near_prediction(
     job: &LaserJob,
     path: &Path,
@@ -280,12 +287,10 @@ fn search_near_prediction(
     line: &LaserLine,
 ) -> Option<DotCandidate> {
     let hit = line.hit(&evidence.pose.plane())?;
-    let slate = job.target.surface() == Surface::Slate;
     look_near(job, path, evidence, hit).filter(|c| {
-        // A slate's near dots bloom past a board's limit ([`sized_like_a_dot`]).
         let dot_like = match misfit(&job.camera, c, hit.z) {
             None => true,
-            Some(Refusal::TooLarge) => slate,
+            Some(Refusal::TooLarge) => !size_follows_distance(job),
             Some(_) => false,
         };
         dot_like && c.colour_score >= SECOND_LOOK_MIN_COLOUR_SIGMAS

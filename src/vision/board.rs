@@ -187,15 +187,14 @@ pub fn find_checkerboard(photo: &Photo, path: &Path, cols: u32, rows: u32) -> Re
                 if crop.width > widest as i32 || crop.width < 16 || crop.height < 16 {
                     continue;
                 }
-                let image = match step {
+                let found = match step {
                     SearchStep::LocatedAgain { image: CropImage::Channel(c), .. } => {
-                        photo.channel_crop(crop, factor, c).map_err(cv)?
+                        step.detect(&photo.channel_crop(crop, factor, c).map_err(cv)?, cols, rows)
                     }
-                    _ => {
-                        Mat::roi(photo.reduced_grey(factor).map_err(cv)?, crop).map_err(cv)?.try_clone().map_err(cv)?
-                    }
+                    // The grey crop is a view into the reduced image, not a copy.
+                    _ => step.detect(&Mat::roi(photo.reduced_grey(factor).map_err(cv)?, crop).map_err(cv)?, cols, rows),
                 };
-                (step.detect(&image, cols, rows), (crop.x as f64, crop.y as f64))
+                (found, (crop.x as f64, crop.y as f64))
             }
             _ => (step.detect(photo.reduced_grey(factor).map_err(cv)?, cols, rows), (0.0, 0.0)),
         };
