@@ -104,7 +104,8 @@ pub struct DotCandidate {
     pub colour_score: f64,
     /// Angle between the blob's chroma and the laser's, radians.
     pub colour_angle_rad: f64,
-    /// 1-sigma noise of `colour_angle_rad`, radians.
+    /// 1-sigma uncertainty of `colour_angle_rad`, radians: the map's noise over the scored
+    /// pixels, and for a clipped blob at least [`CLIPPED_CHROMA_SIGMA_RAD`].
     pub colour_angle_sigma_rad: f64,
     /// How far its half-peak outline departs from an ellipse, as a share of its radius
     /// ([`super::outline::outline_roughness`]); `None` when not measured (a clipped core, a
@@ -113,6 +114,10 @@ pub struct DotCandidate {
     /// Mean excess (R, G, B) of the scored pixels over the local background, 8-bit levels:
     /// what a calibration learns the laser's colour from.
     pub excess_rgb: [f64; 3],
+    /// `excess_rgb` has a channel filled in from the laser's colour because that channel
+    /// clips on the blob's surface ([`seen_through_clipping`]): its chroma repeats the model
+    /// it was filled from, so it is no evidence of the laser's colour.
+    pub colour_filled_in: bool,
 }
 
 /// Tuning of the detector; the defaults suit 8-bit photos from 640 px to 4000 px wide.
@@ -703,15 +708,29 @@ fn blob_candidate(
         white_px,
         colour_score: score.sigmas,
         colour_angle_rad: score.angle_rad,
-        colour_angle_sigma_rad: score.angle_sigma_rad,
+        colour_angle_sigma_rad: if m.saturated_pixels > 0 {
+            score.angle_sigma_rad.max(CLIPPED_CHROMA_SIGMA_RAD)
+        } else {
+            score.angle_sigma_rad
+        },
         outline_roughness,
         excess_rgb: colour.excess_rgb,
+        colour_filled_in: colour.filled_in,
     })
 }
 
 /// Smallest half-peak radius whose outline's shape is measured, pixels: below it the pixel
 /// grid and the blur make every blob round.
 const OUTLINE_MIN_RADIUS_PX: f64 = 4.0;
+/// Least 1-sigma uncertainty of a clipped blob's chroma angle, radians. Its colour is read
+/// off the fringe around the clipped pixels, where the laser's own channel is truncated
+/// (blur and JPEG spread the clipped core's cut-off values into it) and crosstalk whitens
+/// it. On the README demo's photos the 11 clipped dots' chroma lay 2-37 degrees from the
+/// learned colour (the far ones, 3.5-4.5 m on bright squares in clear water, 16-37), the 5
+/// unclipped dots' 1-13 with their noise explaining the 13. The colour of a clipped blob
+/// says this much less, both when a calibration learns from it and when a search judges it.
+const CLIPPED_CHROMA_SIGMA_RAD: f64 = 0.25;
+
 /// Least peak, in noise sigmas, whose outline's shape is measured.
 const OUTLINE_MIN_PEAK_SIGMAS: f64 = 5.0;
 
@@ -719,6 +738,7 @@ const OUTLINE_MIN_PEAK_SIGMAS: f64 = 5.0;
 struct BlobColour {
     excess_rgb: [f64; 3],
     pixels: usize,
+    filled_in: bool,
 }
 
 /// Measures blob `id`'s colour around `centre` (image pixels) against the mean of a ring
@@ -775,7 +795,8 @@ fn blob_colour(
     let mean_bg = bg.iter().fold([0f64; 3], |a, p| [a[0] + p[0], a[1] + p[1], a[2] + p[2]]);
     let excess_rgb = [sig[0] / ns - mean_bg[0] / nb, sig[1] / ns - mean_bg[1] / nb, sig[2] / ns - mean_bg[2] / nb];
     let blind = [0, 1, 2].map(|c| 2 * bg.iter().filter(|p| p[c] >= CLIPPED as f64).count() > n_bg);
-    Some(BlobColour { excess_rgb: seen_through_clipping(excess_rgb, blind, laser_rgb), pixels: n_sig })
+    let seen = seen_through_clipping(excess_rgb, blind, laser_rgb);
+    Some(BlobColour { excess_rgb: seen, pixels: n_sig, filled_in: seen != excess_rgb })
 }
 
 /// `excess` with each channel clipped on the blob's surface (`blind`) filled in as the

@@ -214,11 +214,18 @@ impl LaserColourModel {
     /// The colour learned from accepted dots: their chroma directions averaged, each
     /// weighted by how well its colour was measured (`1 / (sigma^2 + MIN_SPREAD^2)`, so a
     /// faint dot whose chroma noise alone is tens of degrees counts little and bright dots
-    /// count alike, near ones not outweighing far ones), and the laser's own spread: the
-    /// angles' weighted mean square less what the measurement noise explains. `None` below 3
-    /// dots, or when the dots' chroma disagree by more than the prior allows (they cannot be
-    /// one laser).
+    /// count alike, near ones not outweighing far ones) and down-weighted by its angle from
+    /// the others' ([`ROBUST_SCALE`]); and the laser's own spread, from the weighted median
+    /// of the angles less what the measurement noise explains. One mismeasured dot among six
+    /// must not set the tolerance: on the tuning target-less sets the root-mean-square
+    /// spread of 5-7 dots was 8-19 degrees where the laser's dots lay within 4-6 of their
+    /// median, and every algae tuft of that hue passed. Dots whose colour was filled in
+    /// through clipping ([`MeasuredColour::clipped`]) are left out when three others remain.
+    /// `None` below 3 dots, or when the dots' chroma disagree by more than the prior allows
+    /// (they cannot be one laser).
     pub fn learn(dots: &[MeasuredColour]) -> Option<LaserColourModel> {
+        let clean: Vec<MeasuredColour> = dots.iter().filter(|d| !d.clipped).copied().collect();
+        let dots = if clean.len() >= 3 { &clean[..] } else { dots };
         let dirs: Vec<([f64; 3], f64)> = dots
             .iter()
             .filter(|d| dot(d.excess_rgb, d.excess_rgb) > 1e-9)
@@ -232,19 +239,28 @@ impl LaserColourModel {
             return None;
         }
         let weight = |sigma: f64| 1.0 / (sigma * sigma + MIN_SPREAD_RAD * MIN_SPREAD_RAD);
-        let mean_dir = unit(dirs.iter().fold([0.0; 3], |acc, (d, s)| add(acc, scale(*d, weight(*s)))));
+        let weights: Vec<f64> = dirs.iter().map(|(_, s)| weight(*s)).collect();
+        let angles_to =
+            |mean: [f64; 3]| -> Vec<f64> { dirs.iter().map(|(d, _)| dot(*d, mean).clamp(-1.0, 1.0).acos()).collect() };
+        let mut mean_dir = unit(dirs.iter().zip(&weights).fold([0.0; 3], |acc, ((d, _), w)| add(acc, scale(*d, *w))));
+        for _ in 0..ROBUST_PASSES {
+            let angles = angles_to(mean_dir);
+            let s = (ROBUST_SCALE * weighted_median(&angles, &weights)).max(MIN_SPREAD_RAD);
+            mean_dir = unit(
+                dirs.iter()
+                    .zip(&weights)
+                    .zip(&angles)
+                    .fold([0.0; 3], |acc, (((d, _), w), a)| add(acc, scale(*d, w / (1.0 + (a / s).powi(2))))),
+            );
+        }
         // The stored direction keeps the dots' mean white part, as the file describes the
         // excess itself, not its chroma alone.
         let mean_excess = unit(dots.iter().fold([0.0; 3], |acc, d| add(acc, unit(d.excess_rgb))));
         let white = dot(mean_excess, WHITE).max(0.0);
         let rgb = unit(add(scale(mean_dir, (1.0 - white * white).max(0.0).sqrt()), scale(WHITE, white)));
-        let (mut total, mut excess_sq) = (0.0, 0.0);
-        for (d, s) in &dirs {
-            let a = dot(*d, mean_dir).clamp(-1.0, 1.0).acos();
-            total += weight(*s);
-            excess_sq += weight(*s) * (a * a - s * s);
-        }
-        let spread = (excess_sq / total).max(0.0).sqrt();
+        let beyond_noise: Vec<f64> =
+            angles_to(mean_dir).iter().zip(&dirs).map(|(a, (_, s))| (a * a - s * s).max(0.0).sqrt()).collect();
+        let spread = RMS_PER_MEDIAN_ANGLE * weighted_median(&beyond_noise, &weights);
         if spread > 2.0 * PRIOR_SPREAD_RAD || !rgb.iter().all(|v| v.is_finite()) {
             return None;
         }
@@ -268,6 +284,10 @@ pub struct MeasuredColour {
     pub excess_rgb: [f64; 3],
     /// 1-sigma noise of its chroma angle, radians ([`ColourScore::angle_sigma_rad`]).
     pub angle_sigma_rad: f64,
+    /// A channel of its excess was filled in from the model it was measured under, because
+    /// that channel clips on its surface: an echo of that model, not a measurement of the
+    /// laser ([`LaserColourModel::learn`]).
+    pub clipped: bool,
 }
 
 /// Sigmas of the laser's spread and a blob's chroma noise beyond which a blob is not the
@@ -275,8 +295,34 @@ pub struct MeasuredColour {
 /// degrees from the true ones) 3 sigmas refused 4 of 59 true dots' blobs (13-36 degrees
 /// off: a dot on a coloured surface, or clipped) and 6 algae tufts the outline test let
 /// through: wrong dots 17 -> 14 of 120 photos, right 44 -> 41. At 4 sigmas no wrong dot
-/// fewer than without the gate.
+/// fewer than without the gate. Since the spread is learned robustly (3.4-4.3 degrees on
+/// those sets where it was 4-19), 9 of 49 true dots' blobs on the line that pass size and
+/// outline lie beyond 3 sigmas, and 23 of 35 algae tufts.
 pub const OFF_COLOUR_SIGMAS: f64 = 3.0;
+
+/// Passes of down-weighting dots far from the others' colour while learning it.
+const ROBUST_PASSES: usize = 4;
+/// Scale of that down-weighting, as a multiple of the dots' median angle from the mean: a
+/// dot this far off counts half.
+const ROBUST_SCALE: f64 = 2.0;
+/// A 2-D isotropic scatter's root-mean-square angle over its median (Rayleigh: sqrt(2) over
+/// sqrt(2 ln 2)): the spread from the median, which one mismeasured dot does not move.
+const RMS_PER_MEDIAN_ANGLE: f64 = 1.201_122_4;
+
+/// The value below which half the `weights` lie.
+fn weighted_median(values: &[f64], weights: &[f64]) -> f64 {
+    let mut v: Vec<(f64, f64)> = values.iter().copied().zip(weights.iter().copied()).collect();
+    v.sort_by(|a, b| a.0.total_cmp(&b.0));
+    let half = 0.5 * v.iter().map(|p| p.1).sum::<f64>();
+    let mut run = 0.0;
+    for (value, w) in &v {
+        run += w;
+        if run >= half {
+            return *value;
+        }
+    }
+    v.last().map_or(0.0, |p| p.0)
+}
 
 fn dot(a: [f64; 3], b: [f64; 3]) -> f64 {
     a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
@@ -346,8 +392,10 @@ mod tests {
                 add(add(scale(laser, k), [white, white, white]), [wobble, 0.0, -wobble])
             })
             .collect();
-        let dots: Vec<MeasuredColour> =
-            excesses.iter().map(|&excess_rgb| MeasuredColour { excess_rgb, angle_sigma_rad: 0.02 }).collect();
+        let dots: Vec<MeasuredColour> = excesses
+            .iter()
+            .map(|&excess_rgb| MeasuredColour { excess_rgb, angle_sigma_rad: 0.02, clipped: false })
+            .collect();
         let m = LaserColourModel::learn(&dots).expect("eight consistent dots");
         assert_eq!(m.source, ColourSource::Learned { dots: 8 });
         assert!(m.angle_rad(scale(laser, 10.0)) < 0.05, "{m:?}");
@@ -371,7 +419,7 @@ mod tests {
         let mut dots: Vec<MeasuredColour> = (0..6)
             .map(|i| {
                 let wobble = if i % 2 == 0 { 0.03 } else { -0.03 };
-                MeasuredColour { excess_rgb: scale(tilt(laser, wobble), 60.0), angle_sigma_rad: 0.01 }
+                MeasuredColour { excess_rgb: scale(tilt(laser, wobble), 60.0), angle_sigma_rad: 0.01, clipped: false }
             })
             .collect();
         let clean = LaserColourModel::learn(&dots).expect("six dots");
@@ -380,12 +428,12 @@ mod tests {
             let excess_rgb = scale(tilt(laser, k), 8.0);
             let angle_sigma_rad = clean.angle_rad(excess_rgb);
             assert!(angle_sigma_rad > 0.3, "{angle_sigma_rad}");
-            dots.push(MeasuredColour { excess_rgb, angle_sigma_rad });
+            dots.push(MeasuredColour { excess_rgb, angle_sigma_rad, clipped: false });
         }
         let m = LaserColourModel::learn(&dots).expect("eight dots");
         assert!(m.angle_rad(laser) < 0.01, "{m:?}");
         assert!((m.spread_rad - clean.spread_rad).abs() < 0.01, "{} vs {}", m.spread_rad, clean.spread_rad);
-        assert!(m.spread_rad < 0.07, "{m:?}");
+        assert!(m.spread_rad < 0.1, "{m:?}");
         let off = 15f64.to_radians();
         assert!(m.off_colour(off, 0.01), "a bright blob 15 degrees off");
         assert!(!m.off_colour(off, 0.1), "a faint one whose noise is 6 degrees");
@@ -393,11 +441,54 @@ mod tests {
         assert!(!LaserColourModel::green_prior().off_colour(off, 0.01), "the prior judges no colour");
     }
 
+    /// Six dots of one laser and one mismeasured 34 degrees off (a dot half on a coloured
+    /// tape, or a wrong dot the fit kept): the colour stays the laser's and the spread its
+    /// dots' (4 degrees each side), so the stray hue stays off colour. A mean and
+    /// root-mean-square over all seven turned the colour by 4.8 degrees and widened the
+    /// spread to 12.6.
+    #[test]
+    fn one_mismeasured_dot_neither_turns_the_colour_nor_widens_the_spread() {
+        let laser = unit([0.45, 0.85, 0.25]);
+        let tilt = |d: [f64; 3], k: f64| unit(add(d, scale(unit(cross(WHITE, d)), k)));
+        let mut dots: Vec<MeasuredColour> = (0..6)
+            .map(|i| {
+                let wobble = if i % 2 == 0 { 0.03 } else { -0.03 };
+                MeasuredColour { excess_rgb: scale(tilt(laser, wobble), 60.0), angle_sigma_rad: 0.01, clipped: false }
+            })
+            .collect();
+        let stray = scale(tilt(laser, 0.3), 60.0);
+        dots.push(MeasuredColour { excess_rgb: stray, angle_sigma_rad: 0.01, clipped: false });
+        let m = LaserColourModel::learn(&dots).expect("seven dots");
+        assert!(m.angle_rad(laser) < 0.02, "{m:?}");
+        assert!(m.spread_rad < 0.1, "{m:?}");
+        assert!(m.off_colour(m.angle_rad(stray), 0.01));
+    }
+
+    /// A dot whose surface clips a channel has that channel filled in from the model it was
+    /// measured under (the prior, in a calibration): its colour is the prior's echo. With
+    /// three dots measured without clipping the echoes are left out.
+    #[test]
+    fn colours_filled_in_through_clipping_are_not_learned_from() {
+        let laser = unit([0.55, 0.82, 0.05]);
+        let prior = LaserColourModel::green_prior().rgb;
+        let measured =
+            |excess_rgb: [f64; 3], clipped: bool| MeasuredColour { excess_rgb, angle_sigma_rad: 0.01, clipped };
+        let mut dots: Vec<MeasuredColour> =
+            (0..3).map(|i| measured(scale(laser, 30.0 + 10.0 * i as f64), false)).collect();
+        dots.extend((0..3).map(|i| measured(scale(prior, 50.0 + 10.0 * i as f64), true)));
+        let m = LaserColourModel::learn(&dots).expect("three clean dots");
+        assert_eq!(m.source, ColourSource::Learned { dots: 3 });
+        assert!(m.angle_rad(laser) < 0.01, "{m:?}");
+        // With fewer than three clean dots every dot counts.
+        let all = LaserColourModel::learn(&dots[1..]).expect("five dots");
+        assert_eq!(all.source, ColourSource::Learned { dots: 5 });
+    }
+
     #[test]
     fn refuses_to_learn_from_dots_of_no_common_colour() {
         let e = [[50.0, 10.0, 10.0], [10.0, 50.0, 10.0], [10.0, 10.0, 50.0], [40.0, 40.0, 5.0]];
         let e: Vec<MeasuredColour> =
-            e.iter().map(|&excess_rgb| MeasuredColour { excess_rgb, angle_sigma_rad: 0.02 }).collect();
+            e.iter().map(|&excess_rgb| MeasuredColour { excess_rgb, angle_sigma_rad: 0.02, clipped: false }).collect();
         assert!(LaserColourModel::learn(&e).is_none());
         assert!(LaserColourModel::learn(&e[..2]).is_none());
         let white = LaserColour { rgb: [0.577, 0.577, 0.577], spread_rad: 0.1, dots: 5 };

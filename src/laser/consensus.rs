@@ -276,6 +276,7 @@ mod tests {
             colour_angle_sigma_rad: 0.02,
             outline_roughness: None,
             excess_rgb: [10.0, 30.0, 10.0],
+            colour_filled_in: false,
         }
     }
 

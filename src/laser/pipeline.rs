@@ -457,7 +457,11 @@ fn learn_colour(results: &[PhotoResult], fit: &LaserFit) -> Option<LaserColourMo
             let e = r.as_ref().ok()?;
             let used = pf.as_ref().is_some_and(|p| p.outlier.is_none());
             let c = e.candidates.first().filter(|_| used && e.dot_source != DotSource::Hand)?;
-            Some(MeasuredColour { excess_rgb: c.excess_rgb, angle_sigma_rad: c.colour_angle_sigma_rad })
+            Some(MeasuredColour {
+                excess_rgb: c.excess_rgb,
+                angle_sigma_rad: c.colour_angle_sigma_rad,
+                clipped: c.colour_filled_in,
+            })
         })
         .collect();
     LaserColourModel::learn(&dots)
