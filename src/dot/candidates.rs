@@ -12,7 +12,7 @@
 
 use super::centre::{refine_centre, weighted_centre};
 use super::colour::LaserColourModel;
-use super::outline::{outline_roughness, ContrastMap};
+use super::outline::{clipped_off_centre, outline_roughness, ContrastMap};
 use fslcal_core::Vec2;
 
 /// An 8-bit level at or above which a channel is taken as clipped (JPEG rounding keeps
@@ -108,8 +108,10 @@ pub struct DotCandidate {
     /// pixels, and for a clipped blob at least [`CLIPPED_CHROMA_SIGMA_RAD`].
     pub colour_angle_sigma_rad: f64,
     /// How far its half-peak outline departs from an ellipse, as a share of its radius
-    /// ([`super::outline::outline_roughness`]); `None` when not measured (a clipped core, a
-    /// blob too small or too faint for its outline to mean anything).
+    /// ([`super::outline::outline_roughness`]); `None` when not measured (a blob too small
+    /// or too faint for its outline to mean anything). A clipped blob's outline is not
+    /// traced; it is 1 when its clipped part lies around its centre and not at it
+    /// ([`super::outline::clipped_off_centre`]), else `None`.
     pub outline_roughness: Option<f64>,
     /// Mean excess (R, G, B) of the scored pixels over the local background, 8-bit levels:
     /// what a calibration learns the laser's colour from.
@@ -680,16 +682,23 @@ fn blob_candidate(
             return None;
         }
     }
-    let outline_roughness = (m.saturated_pixels == 0
-        && core_radius_px >= OUTLINE_MIN_RADIUS_PX
-        && m.peak >= OUTLINE_MIN_PEAK_SIGMAS * maps.sigma)
-        .then(|| {
-            let map =
-                ContrastMap { excess: &maps.excess, clipped: &maps.saturated, width: maps.roi.w, height: maps.roi.h };
-            let at = centre - Vec2::new(maps.roi.x0 as f64, maps.roi.y0 as f64);
-            outline_roughness(&map, at, m.peak, maps.sigma, 3.0 * core_radius_px + 4.0)
-        })
-        .flatten();
+    let at = centre - Vec2::new(maps.roi.x0 as f64, maps.roi.y0 as f64);
+    let outline_roughness = if m.saturated_pixels == 0 {
+        (core_radius_px >= OUTLINE_MIN_RADIUS_PX && m.peak >= OUTLINE_MIN_PEAK_SIGMAS * maps.sigma)
+            .then(|| {
+                let map = ContrastMap {
+                    excess: Some(&maps.excess),
+                    clipped: &maps.saturated,
+                    width: maps.roi.w,
+                    height: maps.roi.h,
+                };
+                outline_roughness(&map, at, m.peak, maps.sigma, 3.0 * core_radius_px + 4.0)
+            })
+            .flatten()
+    } else {
+        let map = ContrastMap { excess: None, clipped: &maps.saturated, width: maps.roi.w, height: maps.roi.h };
+        clipped_off_centre(&map, at, m.saturated_pixels).then_some(1.0)
+    };
     let white_px = pixels
         .iter()
         .filter(|&&i| {
