@@ -158,6 +158,15 @@ impl Default for DotDetectorParams {
     }
 }
 
+/// Least colour score of a blob the sensitive look keeps, in noise sigmas. It searches with
+/// a lower threshold where a dot is expected, and where the dot is too faint to see it
+/// finds noise: on tuning calibration seeds 0-23 the calibration's second look found specks
+/// 2-13 px from a dot below visibility scoring 6-8 sigmas (three were used in fits), and 34
+/// true dots scoring 11 or more; along the calibrated line on the tuning target-less seeds
+/// 0-5 a speck of 5 sigmas on a photo without a dot was taken for it, and no true dot the
+/// search took scored under 15.
+const SENSITIVE_MIN_COLOUR_SIGMAS: f64 = 10.0;
+
 impl DotDetectorParams {
     /// The same detector made more sensitive, for a second look where a dot is expected (a
     /// small region, or a narrow band around the laser's image): far, faint dots in murky
@@ -167,7 +176,7 @@ impl DotDetectorParams {
             threshold_sigma: 3.5,
             min_excess_levels: 5.0,
             min_snr: 5.0,
-            min_colour_sigmas: 4.0,
+            min_colour_sigmas: SENSITIVE_MIN_COLOUR_SIGMAS,
             ..self.clone()
         }
     }

@@ -278,8 +278,8 @@ fn observation(e: &PhotoEvidence) -> Option<DotObservation> {
 /// Second look for a photo whose dot was not found or disagreed with the first fit, near
 /// where `line` meets this photo's target (see [`near_prediction`]). What it finds must
 /// still be a dot at that distance ([`misfit`]: size where [`size_follows_distance`],
-/// signal, outline) and carry at least [`SECOND_LOOK_MIN_COLOUR_SIGMAS`] of the laser's
-/// colour.
+/// signal, outline); the sensitive detector it uses keeps only blobs that show the
+/// laser's colour clearly ([`crate::dot::candidates::DotDetectorParams::sensitive`]).
 fn search_near_prediction(
     job: &LaserJob,
     path: &Path,
@@ -287,22 +287,12 @@ fn search_near_prediction(
     line: &LaserLine,
 ) -> Option<DotCandidate> {
     let hit = line.hit(&evidence.pose.plane())?;
-    look_near(job, path, evidence, hit).filter(|c| {
-        let dot_like = match misfit(&job.camera, c, hit.z) {
-            None => true,
-            Some(Refusal::TooLarge) => !size_follows_distance(job),
-            Some(_) => false,
-        };
-        dot_like && c.colour_score >= SECOND_LOOK_MIN_COLOUR_SIGMAS
+    look_near(job, path, evidence, hit).filter(|c| match misfit(&job.camera, c, hit.z) {
+        None => true,
+        Some(Refusal::TooLarge) => !size_follows_distance(job),
+        Some(_) => false,
     })
 }
-
-/// Least colour score of a dot the second look finds, in noise sigmas. It searches with a
-/// lower threshold where the fit expects the dot, and where the dot is too faint to see it
-/// found noise: on tuning calibration seeds 0-23 its finds 2-13 px from a dot below
-/// visibility scored 6-8 sigmas (three were used in fits), the 34 true dots it found 11 or
-/// more.
-const SECOND_LOOK_MIN_COLOUR_SIGMAS: f64 = 10.0;
 
 /// The second look's candidate near `hit` (camera frame, metres), before it is judged.
 fn look_near(job: &LaserJob, path: &Path, evidence: &PhotoEvidence, hit: Vec3) -> Option<DotCandidate> {
