@@ -220,11 +220,11 @@ impl LaserColourModel {
     /// must not set the tolerance: on the tuning target-less sets the root-mean-square
     /// spread of 5-7 dots was 8-19 degrees where the laser's dots lay within 4-6 of their
     /// median, and every algae tuft of that hue passed. Dots whose colour was filled in
-    /// through clipping ([`MeasuredColour::clipped`]) are left out when three others remain.
+    /// through clipping ([`MeasuredColour::filled_in`]) are left out when three others remain.
     /// `None` below 3 dots, or when the dots' chroma disagree by more than the prior allows
     /// (they cannot be one laser).
     pub fn learn(dots: &[MeasuredColour]) -> Option<LaserColourModel> {
-        let clean: Vec<MeasuredColour> = dots.iter().filter(|d| !d.clipped).copied().collect();
+        let clean: Vec<MeasuredColour> = dots.iter().filter(|d| !d.filled_in).copied().collect();
         let dots = if clean.len() >= 3 { &clean[..] } else { dots };
         let dirs: Vec<([f64; 3], f64)> = dots
             .iter()
@@ -287,7 +287,7 @@ pub struct MeasuredColour {
     /// A channel of its excess was filled in from the model it was measured under, because
     /// that channel clips on its surface: an echo of that model, not a measurement of the
     /// laser ([`LaserColourModel::learn`]).
-    pub clipped: bool,
+    pub filled_in: bool,
 }
 
 /// Sigmas of the laser's spread and a blob's chroma noise beyond which a blob is not the
@@ -295,9 +295,10 @@ pub struct MeasuredColour {
 /// degrees from the true ones) 3 sigmas refused 4 of 59 true dots' blobs (13-36 degrees
 /// off: a dot on a coloured surface, or clipped) and 6 algae tufts the outline test let
 /// through: wrong dots 17 -> 14 of 120 photos, right 44 -> 41. At 4 sigmas no wrong dot
-/// fewer than without the gate. Since the spread is learned robustly (3.4-4.3 degrees on
-/// those sets where it was 4-19), 9 of 49 true dots' blobs on the line that pass size and
-/// outline lie beyond 3 sigmas, and 23 of 35 algae tufts.
+/// fewer than without the gate. Since the spread is learned robustly (3.4-6.1 degrees on
+/// those sets where it was 4-19) and a clipped blob's chroma counts as uncertain, 4 of 47
+/// true dots' blobs on the line that pass size and outline lie beyond 3 sigmas, and 12 of
+/// 25 algae tufts.
 pub const OFF_COLOUR_SIGMAS: f64 = 3.0;
 
 /// Passes of down-weighting dots far from the others' colour while learning it.
@@ -394,7 +395,7 @@ mod tests {
             .collect();
         let dots: Vec<MeasuredColour> = excesses
             .iter()
-            .map(|&excess_rgb| MeasuredColour { excess_rgb, angle_sigma_rad: 0.02, clipped: false })
+            .map(|&excess_rgb| MeasuredColour { excess_rgb, angle_sigma_rad: 0.02, filled_in: false })
             .collect();
         let m = LaserColourModel::learn(&dots).expect("eight consistent dots");
         assert_eq!(m.source, ColourSource::Learned { dots: 8 });
@@ -419,7 +420,7 @@ mod tests {
         let mut dots: Vec<MeasuredColour> = (0..6)
             .map(|i| {
                 let wobble = if i % 2 == 0 { 0.03 } else { -0.03 };
-                MeasuredColour { excess_rgb: scale(tilt(laser, wobble), 60.0), angle_sigma_rad: 0.01, clipped: false }
+                MeasuredColour { excess_rgb: scale(tilt(laser, wobble), 60.0), angle_sigma_rad: 0.01, filled_in: false }
             })
             .collect();
         let clean = LaserColourModel::learn(&dots).expect("six dots");
@@ -428,7 +429,7 @@ mod tests {
             let excess_rgb = scale(tilt(laser, k), 8.0);
             let angle_sigma_rad = clean.angle_rad(excess_rgb);
             assert!(angle_sigma_rad > 0.3, "{angle_sigma_rad}");
-            dots.push(MeasuredColour { excess_rgb, angle_sigma_rad, clipped: false });
+            dots.push(MeasuredColour { excess_rgb, angle_sigma_rad, filled_in: false });
         }
         let m = LaserColourModel::learn(&dots).expect("eight dots");
         assert!(m.angle_rad(laser) < 0.01, "{m:?}");
@@ -453,11 +454,11 @@ mod tests {
         let mut dots: Vec<MeasuredColour> = (0..6)
             .map(|i| {
                 let wobble = if i % 2 == 0 { 0.03 } else { -0.03 };
-                MeasuredColour { excess_rgb: scale(tilt(laser, wobble), 60.0), angle_sigma_rad: 0.01, clipped: false }
+                MeasuredColour { excess_rgb: scale(tilt(laser, wobble), 60.0), angle_sigma_rad: 0.01, filled_in: false }
             })
             .collect();
         let stray = scale(tilt(laser, 0.3), 60.0);
-        dots.push(MeasuredColour { excess_rgb: stray, angle_sigma_rad: 0.01, clipped: false });
+        dots.push(MeasuredColour { excess_rgb: stray, angle_sigma_rad: 0.01, filled_in: false });
         let m = LaserColourModel::learn(&dots).expect("seven dots");
         assert!(m.angle_rad(laser) < 0.02, "{m:?}");
         assert!(m.spread_rad < 0.1, "{m:?}");
@@ -472,7 +473,7 @@ mod tests {
         let laser = unit([0.55, 0.82, 0.05]);
         let prior = LaserColourModel::green_prior().rgb;
         let measured =
-            |excess_rgb: [f64; 3], clipped: bool| MeasuredColour { excess_rgb, angle_sigma_rad: 0.01, clipped };
+            |excess_rgb: [f64; 3], filled_in: bool| MeasuredColour { excess_rgb, angle_sigma_rad: 0.01, filled_in };
         let mut dots: Vec<MeasuredColour> =
             (0..3).map(|i| measured(scale(laser, 30.0 + 10.0 * i as f64), false)).collect();
         dots.extend((0..3).map(|i| measured(scale(prior, 50.0 + 10.0 * i as f64), true)));
@@ -487,8 +488,10 @@ mod tests {
     #[test]
     fn refuses_to_learn_from_dots_of_no_common_colour() {
         let e = [[50.0, 10.0, 10.0], [10.0, 50.0, 10.0], [10.0, 10.0, 50.0], [40.0, 40.0, 5.0]];
-        let e: Vec<MeasuredColour> =
-            e.iter().map(|&excess_rgb| MeasuredColour { excess_rgb, angle_sigma_rad: 0.02, clipped: false }).collect();
+        let e: Vec<MeasuredColour> = e
+            .iter()
+            .map(|&excess_rgb| MeasuredColour { excess_rgb, angle_sigma_rad: 0.02, filled_in: false })
+            .collect();
         assert!(LaserColourModel::learn(&e).is_none());
         assert!(LaserColourModel::learn(&e[..2]).is_none());
         let white = LaserColour { rgb: [0.577, 0.577, 0.577], spread_rad: 0.1, dots: 5 };

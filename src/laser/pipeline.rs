@@ -450,7 +450,7 @@ fn learn_colour(results: &[PhotoResult], fit: &LaserFit) -> Option<LaserColourMo
             Some(MeasuredColour {
                 excess_rgb: c.excess_rgb,
                 angle_sigma_rad: c.colour_angle_sigma_rad,
-                clipped: c.colour_filled_in,
+                filled_in: c.colour_filled_in,
             })
         })
         .collect();
