@@ -970,6 +970,17 @@ mod tests {
         crate::dot::on_target::board_squares(&corners, cols, rows)
     }
 
+    /// The search over the whole board of [`board_9x6`] with `side` px squares (10 x 7 of
+    /// them, border squares included), on its `squares`.
+    fn over_board_9x6(side: usize, squares: Vec<[Vec2; 4]>) -> SearchRegion {
+        let (x1, y1) = ((10 * side - 1) as f64, (7 * side - 1) as f64);
+        SearchRegion {
+            polygon: vec![Vec2::new(0.0, 0.0), Vec2::new(x1, 0.0), Vec2::new(x1, y1), Vec2::new(0.0, y1)],
+            band: None,
+            squares,
+        }
+    }
+
     /// Whether pixel (x, y) lies on a white square of a board of `side` px squares.
     fn on_white(x: usize, y: usize, side: usize) -> bool {
         ((x / side) + (y / side)) % 2 == 0
@@ -1031,11 +1042,7 @@ mod tests {
         let squares = board_9x6(side);
         assert_eq!(squares.len(), 10 * 7);
         assert_eq!(squares[0][0], Vec2::new(0.0, 0.0), "the border squares are extrapolated");
-        let region = SearchRegion {
-            polygon: vec![Vec2::new(0.0, 0.0), Vec2::new(399.0, 0.0), Vec2::new(399.0, 279.0), Vec2::new(0.0, 279.0)],
-            band: None,
-            squares,
-        };
+        let region = over_board_9x6(side, squares);
         let c = find_dot_candidates(&view(&data, w, h), &region, &DotDetectorParams::default(), 8);
         let dot = c.iter().find(|c| (c.pixel - truth).norm() < 0.5);
         assert!(dot.is_some(), "{c:?}");
@@ -1091,11 +1098,7 @@ mod tests {
         });
         let squares = board_9x6(side);
         assert_eq!(largest_core_px(20_000, &squares), 900, "a quarter of a 60 px square");
-        let region = SearchRegion {
-            polygon: vec![Vec2::new(0.0, 0.0), Vec2::new(599.0, 0.0), Vec2::new(599.0, 419.0), Vec2::new(0.0, 419.0)],
-            band: None,
-            squares,
-        };
+        let region = over_board_9x6(side, squares);
         let c = find_dot_candidates(&view(&data, w, h), &region, &DotDetectorParams::default(), 8);
         let dot = c.iter().find(|c| (c.pixel - truth).norm() < 1.0);
         assert!(dot.is_some_and(|d| d.saturated_core), "no candidate at the dot: {c:?}");

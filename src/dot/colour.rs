@@ -409,6 +409,21 @@ mod tests {
         assert!(m.score(bluish, 20, 2.0).sigmas < LaserColourModel::green_prior().score(bluish, 20, 2.0).sigmas);
     }
 
+    /// `d` turned by about `k` radians about white: its chroma turned.
+    fn tilt(d: [f64; 3], k: f64) -> [f64; 3] {
+        unit(add(d, scale(unit(cross(WHITE, d)), k)))
+    }
+
+    /// Six well-measured dots of `laser` (60 levels), turned alternately to either side.
+    fn six_dots(laser: [f64; 3]) -> Vec<MeasuredColour> {
+        (0..6)
+            .map(|i| {
+                let wobble = if i % 2 == 0 { 0.03 } else { -0.03 };
+                MeasuredColour { excess_rgb: scale(tilt(laser, wobble), 60.0), angle_sigma_rad: 0.01, filled_in: false }
+            })
+            .collect()
+    }
+
     /// Six well-measured dots of one laser and two faint ones whose noise alone turns their
     /// chroma by 20 degrees and more: the faint ones neither pull the colour nor widen the spread,
     /// and a blob 15 degrees off is then off colour unless its own noise explains it. The
@@ -416,13 +431,7 @@ mod tests {
     #[test]
     fn faint_dots_count_by_their_noise_and_the_learned_colour_refuses_other_hues() {
         let laser = unit([0.45, 0.85, 0.25]);
-        let tilt = |d: [f64; 3], k: f64| unit(add(d, scale(unit(cross(WHITE, d)), k)));
-        let mut dots: Vec<MeasuredColour> = (0..6)
-            .map(|i| {
-                let wobble = if i % 2 == 0 { 0.03 } else { -0.03 };
-                MeasuredColour { excess_rgb: scale(tilt(laser, wobble), 60.0), angle_sigma_rad: 0.01, filled_in: false }
-            })
-            .collect();
+        let mut dots = six_dots(laser);
         let clean = LaserColourModel::learn(&dots).expect("six dots");
         for k in [0.2, -0.2] {
             // Turned by as much as its noise says: a 1-sigma faint dot.
@@ -450,13 +459,7 @@ mod tests {
     #[test]
     fn one_mismeasured_dot_neither_turns_the_colour_nor_widens_the_spread() {
         let laser = unit([0.45, 0.85, 0.25]);
-        let tilt = |d: [f64; 3], k: f64| unit(add(d, scale(unit(cross(WHITE, d)), k)));
-        let mut dots: Vec<MeasuredColour> = (0..6)
-            .map(|i| {
-                let wobble = if i % 2 == 0 { 0.03 } else { -0.03 };
-                MeasuredColour { excess_rgb: scale(tilt(laser, wobble), 60.0), angle_sigma_rad: 0.01, filled_in: false }
-            })
-            .collect();
+        let mut dots = six_dots(laser);
         let stray = scale(tilt(laser, 0.3), 60.0);
         dots.push(MeasuredColour { excess_rgb: stray, angle_sigma_rad: 0.01, filled_in: false });
         let m = LaserColourModel::learn(&dots).expect("seven dots");

@@ -60,12 +60,7 @@ impl ContrastMap<'_> {
 pub(super) fn outline_roughness(map: &ContrastMap, centre: Vec2, peak: f64, sigma: f64, reach_px: f64) -> Option<f64> {
     // Half the level at the centre, not half the blob's brightest pixel: a faint blob's
     // brightest pixel is its noise's, and a dot is brightest at its centre anyway.
-    let mut level = 0.0;
-    for dy in [-1.0, 0.0, 1.0] {
-        for dx in [-1.0, 0.0, 1.0] {
-            level += map.at(centre.x + dx, centre.y + dy, peak)? / 9.0;
-        }
-    }
+    let level = centre_level(map, centre, peak)?;
     // A blob whose centre is not its bright part is no spot, when its brightest part is
     // well above the noise (a faint dot's brightest pixel is mostly noise).
     if level < 0.5 * peak {
@@ -124,16 +119,19 @@ pub(super) fn outline_roughness(map: &ContrastMap, centre: Vec2, peak: f64, sigm
 /// clips in patches where its mottle is lightest, and a bubble's or a glint's clipped rim
 /// may lie anywhere in a tuft's blob.
 pub(super) fn clipped_at_centre(map: &ContrastMap, centre: Vec2) -> bool {
+    centre_level(map, centre, 1.0).is_none_or(|level| level >= 0.5)
+}
+
+/// The map's mean over the 3 x 3 pixels at `centre`, clipped pixels at `peak`; `None` when
+/// they leave the map.
+fn centre_level(map: &ContrastMap, centre: Vec2, peak: f64) -> Option<f64> {
     let mut level = 0.0;
     for dy in [-1.0, 0.0, 1.0] {
         for dx in [-1.0, 0.0, 1.0] {
-            match map.at(centre.x + dx, centre.y + dy, 1.0) {
-                Some(v) => level += v / 9.0,
-                None => return true,
-            }
+            level += map.at(centre.x + dx, centre.y + dy, peak)? / 9.0;
         }
     }
-    level >= 0.5
+    Some(level)
 }
 
 /// The terms of ray `k`'s r^-2 in the polar form of an ellipse.
