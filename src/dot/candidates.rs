@@ -1008,6 +1008,33 @@ mod tests {
         assert!((c[0].pixel - truth).norm() < 0.15, "{:?}", c[0].pixel);
     }
 
+    /// A near dot whose core clips white, touching a tuft whose green clips: the tuft's
+    /// clipped green and fringe would pull a centroid over both 2-5 px toward it (tuning
+    /// seeds: a dot on algae 6.4 px off, one beside a sun fleck 5.4 px off); the white core
+    /// alone is round about the dot's centre.
+    #[test]
+    fn a_white_core_is_centred_on_itself_not_on_the_tuft_beside_it() {
+        let (w, h) = (200usize, 150usize);
+        let truth = Vec2::new(90.4, 70.7);
+        let tuft = Vec2::new(101.0, 74.0);
+        let data = paint(w, h, |x, y| {
+            let core = spot(x, y, truth, 600.0, 3.0);
+            let halo = spot(x, y, truth, 120.0, 6.0);
+            let (dx, dy) = (x as f64 - tuft.x, y as f64 - tuft.y);
+            let t = if (dx / 7.0).powi(2) + (dy / 5.0).powi(2) <= 1.0 { 1.0 } else { 0.0 };
+            let noise = grain(x, y);
+            [
+                30.0 + core + 0.2 * halo + 40.0 * t + noise,
+                80.0 + core + halo + 200.0 * t + noise,
+                90.0 + core + 0.3 * halo + 10.0 * t + noise,
+            ]
+        });
+        let c = find_dot_candidates(&view(&data, w, h), &SearchRegion::default(), &DotDetectorParams::default(), 4);
+        let dot = c.iter().find(|c| (c.pixel - truth).norm() < 6.0);
+        let dot = dot.unwrap_or_else(|| panic!("no candidate near the dot: {c:?}"));
+        assert!((dot.pixel - truth).norm() < 0.5, "{:?}", dot.pixel);
+    }
+
     /// A green dot on a white square 12 px from a black one, in clear blue water: its colour
     /// is measured against the white square, not against a ring half on the black one
     /// (measured so, the chroma angle was 0.85 rad; against the white square, 0.11).

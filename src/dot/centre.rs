@@ -43,7 +43,10 @@ pub(super) fn weighted_centre(maps: &RoiMaps, id: u32, (mnx, mxx, mny, mxy): Blo
 /// white square by up to a pixel). The laser adds much more green than `b` times what it
 /// adds to `X`, so `G - (a + b X)` is the dot alone.
 /// The centroid is taken over a disc centred on the current estimate, three times, so the
-/// window is symmetric about the answer.
+/// window is symmetric about the answer. A core clipped white is centred on its white pixels
+/// alone ([`clipped_core_centre`]): the beam clips white where it is brightest, round about
+/// its centre, while clipped green and a fringe above the floor take in whatever bright
+/// green touches the dot (an algae tuft, a sun fleck's glow).
 pub(super) fn refine_centre(img: &ColourView, rough: Vec2, blob_radius_px: f64, laser_rgb: [f64; 3]) -> Option<Vec2> {
     let r_in = blob_radius_px * 1.6 + 3.0;
     let ring = (r_in + 2.0, r_in + 6.0);
@@ -57,7 +60,7 @@ pub(super) fn refine_centre(img: &ColourView, rough: Vec2, blob_radius_px: f64, 
             // thresholded centroid, whose few surviving pixels are at the noise's mercy.
             matched_filter_peak(img, c, r_in, blob_radius_px, &|r, g, b| background.residual(r, g, b))?
         } else {
-            disc.centroid_with_core(background.floor)?
+            clipped_core_centre(img, &window, c, r_in).or_else(|| disc.centroid_with_core(background.floor))?
         };
         let moved = (next - c).norm();
         c = next;
@@ -189,6 +192,56 @@ impl Background {
         g - (self.offset + self.slope * if self.on_red { r } else { b })
     }
 }
+
+/// Centroid of the white core (all channels clipped) nearest `c`: its white pixels joined
+/// through near-white ones (JPEG leaves a clipped core speckled), when it has at least
+/// `MIN_CORE_PX` of them and lies wholly within `EDGE_SHARE` of the disc of `r_in`.
+fn clipped_core_centre(img: &ColourView, window: &Window, c: Vec2, r_in: f64) -> Option<Vec2> {
+    let w = (window.x1 - window.x0 + 1) as usize;
+    let h = (window.y1 - window.y0 + 1) as usize;
+    let level = |i: usize| {
+        let (r, g, b) = img.rgb(window.x0 as usize + i % w, window.y0 as usize + i / w);
+        r.min(g).min(b)
+    };
+    let dist = |i: usize| ((window.x0 + (i % w) as i64) as f64 - c.x).hypot((window.y0 + (i / w) as i64) as f64 - c.y);
+    let seed =
+        (0..w * h).filter(|&i| dist(i) <= r_in && level(i) >= CLIPPED).min_by(|&a, &b| dist(a).total_cmp(&dist(b)))?;
+    let mut seen = vec![false; w * h];
+    seen[seed] = true;
+    let mut stack = vec![seed];
+    let (mut n, mut sx, mut sy) = (0usize, 0f64, 0f64);
+    while let Some(i) = stack.pop() {
+        if dist(i) > EDGE_SHARE * r_in {
+            return None;
+        }
+        let (x, y) = (i % w, i / w);
+        if level(i) >= CLIPPED {
+            n += 1;
+            sx += x as f64;
+            sy += y as f64;
+        }
+        for (dx, dy) in [(-1i64, -1i64), (0, -1), (1, -1), (-1, 0), (1, 0), (-1, 1), (0, 1), (1, 1)] {
+            let (nx, ny) = (x as i64 + dx, y as i64 + dy);
+            if nx < 0 || ny < 0 || nx >= w as i64 || ny >= h as i64 {
+                continue;
+            }
+            let j = ny as usize * w + nx as usize;
+            if !seen[j] && level(j) >= NEAR_WHITE {
+                seen[j] = true;
+                stack.push(j);
+            }
+        }
+    }
+    (n >= MIN_CORE_PX).then(|| Vec2::new(window.x0 as f64 + sx / n as f64, window.y0 as f64 + sy / n as f64))
+}
+
+/// Least level of all three channels that joins white pixels into one core.
+const NEAR_WHITE: i32 = 220;
+/// Share of the disc a white core must lie within: one that reaches its edge is no dot's
+/// core alone (a glint beside it, a clipped surface).
+const EDGE_SHARE: f64 = 0.8;
+/// Fewest white pixels centred on: fewer are JPEG speckle on a core that barely clips.
+const MIN_CORE_PX: usize = 5;
 
 /// The dot's signal over the disc of `r_in` around the current centre.
 struct DiscSignal {
