@@ -209,16 +209,17 @@ fn clipped_core_centre(img: &ColourView, window: &Window, c: Vec2, r_in: f64) ->
     let mut seen = vec![false; w * h];
     seen[seed] = true;
     let mut stack = vec![seed];
-    let (mut n, mut sx, mut sy) = (0usize, 0f64, 0f64);
+    let (mut n, mut sx, mut sy, mut sxx, mut syy, mut sxy) = (0usize, 0f64, 0f64, 0f64, 0f64, 0f64);
     while let Some(i) = stack.pop() {
         if dist(i) > EDGE_SHARE * r_in {
             return None;
         }
         let (x, y) = (i % w, i / w);
         if level(i) >= CLIPPED {
+            let (x, y) = (x as f64, y as f64);
             n += 1;
-            sx += x as f64;
-            sy += y as f64;
+            (sx, sy) = (sx + x, sy + y);
+            (sxx, syy, sxy) = (sxx + x * x, syy + y * y, sxy + x * y);
         }
         for (dx, dy) in [(-1i64, -1i64), (0, -1), (1, -1), (-1, 0), (1, 0), (-1, 1), (0, 1), (1, 1)] {
             let (nx, ny) = (x as i64 + dx, y as i64 + dy);
@@ -232,8 +233,23 @@ fn clipped_core_centre(img: &ColourView, window: &Window, c: Vec2, r_in: f64) ->
             }
         }
     }
-    (n >= MIN_CORE_PX).then(|| Vec2::new(window.x0 as f64 + sx / n as f64, window.y0 as f64 + sy / n as f64))
+    if n < MIN_CORE_PX {
+        return None;
+    }
+    let k = n as f64;
+    let (mx, my) = (sx / k, sy / k);
+    // A core with a glint's white lobe joined to it is no longer round: its centroid lies
+    // between the two (a slate dot 2.9 px off); the fringe's centroid is better there.
+    let (cxx, cyy, cxy) = (sxx / k - mx * mx, syy / k - my * my, sxy / k - mx * my);
+    let (half_trace, det) = (0.5 * (cxx + cyy), cxx * cyy - cxy * cxy);
+    let spread = (half_trace * half_trace - det).max(0.0).sqrt();
+    let (major, minor) = (half_trace + spread, (half_trace - spread).max(1e-9));
+    (major <= MAX_CORE_ELONGATION * minor).then(|| Vec2::new(window.x0 as f64 + mx, window.y0 as f64 + my))
 }
+
+/// Largest ratio of a white core's second moments (major over minor axis, squared) that
+/// is taken for one round core.
+const MAX_CORE_ELONGATION: f64 = 2.0;
 
 /// Least level of all three channels that joins white pixels into one core.
 const NEAR_WHITE: i32 = 220;
