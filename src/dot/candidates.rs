@@ -142,6 +142,10 @@ pub struct DotDetectorParams {
     /// Candidates whose colour score ([`DotCandidate::colour_score`]) is below this many
     /// sigmas are not returned: a white glint's fringe or an off-colour pigment.
     pub min_colour_sigmas: f64,
+    /// Whether a surface whose lit channel clips all over is searched in its other channels
+    /// (its red where green and blue clip, read along the laser's colour); only where a dot
+    /// is expected.
+    pub see_through_clipped_surfaces: bool,
 }
 
 impl Default for DotDetectorParams {
@@ -154,6 +158,7 @@ impl Default for DotDetectorParams {
             background_radius_px: 40,
             colour: LaserColourModel::green_prior(),
             min_colour_sigmas: 4.0,
+            see_through_clipped_surfaces: false,
         }
     }
 }
@@ -177,6 +182,7 @@ impl DotDetectorParams {
             min_excess_levels: 5.0,
             min_snr: 5.0,
             min_colour_sigmas: SENSITIVE_MIN_COLOUR_SIGMAS,
+            see_through_clipped_surfaces: true,
             ..self.clone()
         }
     }
@@ -315,7 +321,8 @@ impl RoiMaps {
     fn new(img: &ColourView, roi: Roi, params: &DotDetectorParams, squares: &[[Vec2; 4]]) -> RoiMaps {
         let weights = params.colour.matched_weights(scene_samples(img, roi), SCENE_NOISE_LEVELS);
         let lit = lit_channels(&params.colour);
-        let (g, saturated) = laser_contrast(img, roi, weights, lit, largest_core_px(params.max_area_px, squares));
+        let see = params.see_through_clipped_surfaces.then_some(params.colour.rgb);
+        let (g, saturated) = laser_contrast(img, roi, weights, lit, see, largest_core_px(params.max_area_px, squares));
         let mut excess = minus_local_background(&g, roi, params.background_radius_px);
         board_background(&g, roi, squares, &mut excess);
         let sigma = robust_noise(&excess);
@@ -395,6 +402,7 @@ fn laser_contrast(
     roi: Roi,
     weights: [f64; 3],
     lit: [bool; 3],
+    see: Option<[f64; 3]>,
     max_area_px: usize,
 ) -> (Vec<f32>, Vec<bool>) {
     let (w, h) = (roi.w, roi.h);
@@ -408,7 +416,74 @@ fn laser_contrast(
             clips[y * w + x] = clip_bits(lit, (r, gg, b));
         }
     }
-    (g, clipped_cores(clips, roi, max_area_px))
+    let Some(laser_rgb) = see else {
+        return (g, clipped_cores(clips, roi, max_area_px));
+    };
+    let surface = clipped_surfaces(&clips, roi);
+    let mut cores = clipped_cores(clips, roi, max_area_px);
+    for (c, &s) in cores.iter_mut().zip(&surface) {
+        *c &= !s;
+    }
+    see_through_clipped_surfaces(img, roi, weights, laser_rgb, &surface, &mut g);
+    (g, cores)
+}
+
+/// The pixels where a lit channel clips over a region that reaches the search's edge: a
+/// surface, where a search around an expected dot holds the dot's core inside it.
+fn clipped_surfaces(clips: &[u8], roi: Roi) -> Vec<bool> {
+    let (w, h) = (roi.w, roi.h);
+    let lit = |i: usize| clips[i] & 0x07 != 0;
+    let mut surface = vec![false; w * h];
+    let mut stack: Vec<usize> = (0..w * h)
+        .filter(|&i| {
+            let (x, y) = (i % w, i / w);
+            (x == 0 || y == 0 || x + 1 == w || y + 1 == h) && lit(i)
+        })
+        .collect();
+    for &i in &stack {
+        surface[i] = true;
+    }
+    while let Some(i) = stack.pop() {
+        for (nx, ny) in neighbours8(i % w, i / w, w, h) {
+            let j = ny * w + nx;
+            if !surface[j] && lit(j) {
+                surface[j] = true;
+                stack.push(j);
+            }
+        }
+    }
+    surface
+}
+
+/// Where a lit channel clips over the surface itself (not a dot's core), the laser's
+/// contrast as its unclipped channels show it: a cyan square in clear water clips green and
+/// blue, and a dot on it shows only in red, which the map's weights count against it (a dot
+/// 145 levels over the square in red scored below the square). There each pixel's unclipped
+/// channels are read along the laser's colour ([`seen_through_clipping`]'s estimate).
+fn see_through_clipped_surfaces(
+    img: &ColourView,
+    roi: Roi,
+    weights: [f64; 3],
+    laser_rgb: [f64; 3],
+    surface: &[bool],
+    g: &mut [f32],
+) {
+    let full = (0..3).map(|k| weights[k] * laser_rgb[k]).sum::<f64>();
+    let top = laser_rgb.iter().copied().fold(0.0, f64::max);
+    for (i, v) in g.iter_mut().enumerate() {
+        if !surface[i] {
+            continue;
+        }
+        let (r, gg, b) = img.rgb(roi.x0 + i % roi.w, roi.y0 + i / roi.w);
+        let px = [r, gg, b];
+        let seen = |k: usize| px[k] < CLIPPED;
+        let norm: f64 = (0..3).filter(|&k| seen(k)).map(|k| laser_rgb[k] * laser_rgb[k]).sum();
+        if norm < (SEEN_SHARE * top).powi(2) {
+            continue;
+        }
+        let along = (0..3).filter(|&k| seen(k)).map(|k| px[k] as f64 * laser_rgb[k]).sum::<f64>() / norm;
+        *v = (along * full) as f32;
+    }
 }
 
 /// Where a core may clip: bit `k` where lit channel `k` clips (a clipped lit channel shows
@@ -832,6 +907,12 @@ fn blob_colour(
     Some(BlobColour { excess_rgb: seen, pixels: n_sig, filled_in: seen != excess_rgb })
 }
 
+/// Least share of the laser's brightest channel that the channels not clipped on a surface
+/// must carry (as a root-sum-square) for a contrast read in them to stand for the laser's: a
+/// green laser of chroma (0.11, 0.89, 0.44) shows on a cyan square clipped in green and blue
+/// only in red, at 145 levels for a dot at 1.7 m.
+const SEEN_SHARE: f64 = 0.1;
+
 /// `excess` with each channel clipped on the blob's surface (`blind`) filled in as the
 /// laser's colour (`laser_rgb`) would have it, at the contrast the other channels show
 /// along that colour. A clipped channel shows no excess whatever lies on it: a dot on a
@@ -845,9 +926,7 @@ fn seen_through_clipping(excess: [f64; 3], blind: [bool; 3], laser_rgb: [f64; 3]
     let seen = |c: usize| !blind[c];
     let norm: f64 = (0..3).filter(|&c| seen(c)).map(|c| laser_rgb[c] * laser_rgb[c]).sum();
     let top = laser_rgb.iter().copied().fold(0.0, f64::max);
-    // The seen channels must carry a fair share of the laser's light for a contrast along
-    // it to mean anything.
-    if norm < (0.2 * top).powi(2) {
+    if norm < (SEEN_SHARE * top).powi(2) {
         return excess;
     }
     let along = (0..3).filter(|&c| seen(c)).map(|c| excess[c] * laser_rgb[c]).sum::<f64>() / norm;
@@ -1102,6 +1181,38 @@ mod tests {
         let data = render(false);
         let c = find_dot_candidates(&view(&data, w, h), &SearchRegion::default(), &p, 8);
         assert!(c.is_empty(), "the clipped square alone gave candidates: {c:?}");
+    }
+
+    /// A cyan square in clear water clips green and blue all round a dot, which shows only in
+    /// red (tuning calibration seed 21: 88 -> 233 levels in red). The map's weights count red
+    /// against a green laser, so the first look sees nothing there; the second look, around
+    /// where the fit expects the dot, reads the square's unclipped red along the laser's
+    /// colour and finds it, and finds nothing on the square without a dot.
+    #[test]
+    fn the_second_look_sees_a_dot_in_the_one_channel_its_square_leaves_unclipped() {
+        use crate::dot::near_prediction::find_near;
+        use crate::dot::on_target::Surface;
+        let (w, h) = (200usize, 150usize);
+        let truth = Vec2::new(100.3, 74.6);
+        let render = |with_dot: bool| {
+            paint(w, h, |x, y| {
+                let dot = if with_dot { spot(x, y, truth, 1200.0, 4.0) } else { 0.0 };
+                let noise = grain(x, y);
+                [88.0 + 0.12 * dot + noise, 262.0 + dot + noise, 258.0 + 0.5 * dot + noise]
+            })
+        };
+        let unit = fslcal_core::unit_file::LaserColour { rgb: [0.108, 0.893, 0.438], spread_rad: 0.06, dots: 8 };
+        let p = DotDetectorParams {
+            colour: LaserColourModel::from_unit(&unit).expect("a green laser"),
+            ..Default::default()
+        };
+        let data = render(true);
+        let first = find_dot_candidates(&view(&data, w, h), &SearchRegion::default(), &p, 8);
+        assert!(first.iter().all(|c| (c.pixel - truth).norm() > 5.0), "the first look saw it: {first:?}");
+        let look = |data: &[u8]| find_near(Surface::Checkerboard, &view(data, w, h), Vec2::zeros(), truth, 16.0, &p);
+        let dot = look(&data).expect("the second look finds the dot");
+        assert!((dot.pixel - truth).norm() < 1.0, "{:?}", dot.pixel);
+        assert!(look(&render(false)).is_none(), "a clipped square alone is no dot");
     }
 
     /// A 9 x 6 board of 60 px squares with a near dot on the one white square whose green
