@@ -350,6 +350,7 @@ pub fn judge_candidate(
     let gate = laser.gate(camera, &search.laser_covariance, candidate.pixel, centring)?;
     // The band reaches past the line's ends: a blob there implies a depth outside the search.
     let (near, far) = search.depths_m;
+    let near = if candidate.saturated_core { near.min(CLIPPED_NEAR_M) } else { near };
     let misfit = if gate.depth_m < near || gate.depth_m > far {
         Some(Refusal::OutOfRange)
     } else {
@@ -362,6 +363,15 @@ pub fn judge_candidate(
     };
     Some(LineCandidate { candidate, gate, misfit, sensitive })
 }
+
+/// Nearest depth a blob clipped at its centre is taken at, metres, however far the
+/// calibration's own near end: 10% inside the 0.5 m the diver's manual works from. A dot
+/// nearer than the calibration's nearest photo is still the laser's, and a blob clipped at
+/// its centre that fits a near dot's size is rare in scenery; a calibration whose nearest
+/// photo was at 0.65 m refused dots at 0.50-0.52 m on fish (tuning seeds 0 and 4), while the
+/// algae the wider search took when it admitted every blob there (7 -> 10 wrong dots) are
+/// not clipped at their centres.
+const CLIPPED_NEAR_M: f64 = 0.45;
 
 /// Why a blob's size or signal cannot be a dot's at depth `z_m`; `None` when they can. A
 /// clipped core is bright enough for any distance; it blooms, but only so far
@@ -539,6 +549,31 @@ mod tests {
             let glint = DotCandidate { white_px: area(1.9 * widest), ..blob(2.2 * widest, 1.9 * widest, true) };
             assert_eq!(misfit(&camera, &glint, z), Some(Refusal::TooLarge), "z {z}: white throughout");
         }
+    }
+
+    /// A search from 0.55 m (a calibration whose nearest photo was at 0.65 m): a blob on the
+    /// line at 0.50 m clipped at its centre is judged as a near dot, the same blob unclipped
+    /// is beyond the searched depths, and below 0.45 m even a clipped one is.
+    #[test]
+    fn a_clipped_dot_nearer_than_the_calibrated_range_is_still_judged() {
+        let (camera, laser) = (tg6_camera(), fsl_laser());
+        let search = LineSearch { depths_m: (0.55, 5.0), ..LineSearch::default() };
+        let at = |z: f64, saturated_core: bool| {
+            let p = laser.point_at_depth(z);
+            let pixel = camera.project(&p).expect("in front of the camera");
+            let c = DotCandidate {
+                radius_px: 14.0,
+                core_radius_px: 12.0,
+                saturated_core,
+                snr: 800.0,
+                colour_score: 300.0,
+                ..crate::dot::on_target::hand_candidate(pixel)
+            };
+            judge_candidate(&camera, &laser, &search, c, false).expect("on the line").misfit
+        };
+        assert_eq!(at(0.50, true), None);
+        assert_eq!(at(0.50, false), Some(Refusal::OutOfRange));
+        assert_eq!(at(0.42, true), Some(Refusal::OutOfRange));
     }
 
     /// One plausible blob alone is the dot; beside a look-alike refused for its outline that
