@@ -537,7 +537,7 @@ fn clipped_cores(mut clips: Vec<u8>, roi: Roi, max_area_px: usize) -> Vec<bool> 
 }
 
 /// The 8-connected neighbours of `(x, y)` inside a `w x h` grid.
-fn neighbours8(x: usize, y: usize, w: usize, h: usize) -> impl Iterator<Item = (usize, usize)> {
+pub(super) fn neighbours8(x: usize, y: usize, w: usize, h: usize) -> impl Iterator<Item = (usize, usize)> {
     (-1i64..=1)
         .flat_map(move |dy| (-1i64..=1).map(move |dx| (x as i64 + dx, y as i64 + dy)))
         .filter(move |&(nx, ny)| {

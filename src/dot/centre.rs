@@ -1,7 +1,7 @@
 //! Centring a dot blob to sub-pixel: its weighted centroid on the detector's maps, then a
 //! re-centring on the photo against a background model that a checkerboard cannot bias.
 
-use super::candidates::{BlobBox, ColourView, RoiMaps, CLIPPED};
+use super::candidates::{neighbours8, BlobBox, ColourView, RoiMaps, CLIPPED};
 use fslcal_core::Vec2;
 
 /// Intensity-weighted centroid of blob `id` in ROI pixels (its clipped core weighted at
@@ -221,12 +221,8 @@ fn clipped_core_centre(img: &ColourView, window: &Window, c: Vec2, r_in: f64) ->
             (sx, sy) = (sx + x, sy + y);
             (sxx, syy, sxy) = (sxx + x * x, syy + y * y, sxy + x * y);
         }
-        for (dx, dy) in [(-1i64, -1i64), (0, -1), (1, -1), (-1, 0), (1, 0), (-1, 1), (0, 1), (1, 1)] {
-            let (nx, ny) = (x as i64 + dx, y as i64 + dy);
-            if nx < 0 || ny < 0 || nx >= w as i64 || ny >= h as i64 {
-                continue;
-            }
-            let j = ny as usize * w + nx as usize;
+        for (nx, ny) in neighbours8(x, y, w, h) {
+            let j = ny * w + nx;
             if !seen[j] && level(j) >= NEAR_WHITE {
                 seen[j] = true;
                 stack.push(j);
