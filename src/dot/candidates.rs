@@ -469,20 +469,15 @@ fn see_through_clipped_surfaces(
     g: &mut [f32],
 ) {
     let full = (0..3).map(|k| weights[k] * laser_rgb[k]).sum::<f64>();
-    let top = laser_rgb.iter().copied().fold(0.0, f64::max);
     for (i, v) in g.iter_mut().enumerate() {
         if !surface[i] {
             continue;
         }
         let (r, gg, b) = img.rgb(roi.x0 + i % roi.w, roi.y0 + i / roi.w);
         let px = [r, gg, b];
-        let seen = |k: usize| px[k] < CLIPPED;
-        let norm: f64 = (0..3).filter(|&k| seen(k)).map(|k| laser_rgb[k] * laser_rgb[k]).sum();
-        if norm < (SEEN_SHARE * top).powi(2) {
-            continue;
+        if let Some(along) = along_seen(px.map(|c| c as f64), px.map(|c| c < CLIPPED), laser_rgb) {
+            *v = (along * full) as f32;
         }
-        let along = (0..3).filter(|&k| seen(k)).map(|k| px[k] as f64 * laser_rgb[k]).sum::<f64>() / norm;
-        *v = (along * full) as f32;
     }
 }
 
@@ -923,14 +918,20 @@ fn seen_through_clipping(excess: [f64; 3], blind: [bool; 3], laser_rgb: [f64; 3]
     if !blind.iter().any(|&b| b) {
         return excess;
     }
-    let seen = |c: usize| !blind[c];
-    let norm: f64 = (0..3).filter(|&c| seen(c)).map(|c| laser_rgb[c] * laser_rgb[c]).sum();
-    let top = laser_rgb.iter().copied().fold(0.0, f64::max);
-    if norm < (SEEN_SHARE * top).powi(2) {
-        return excess;
+    match along_seen(excess, blind.map(|b| !b), laser_rgb) {
+        Some(along) => [0, 1, 2].map(|c| if blind[c] { along * laser_rgb[c] } else { excess[c] }),
+        None => excess,
     }
-    let along = (0..3).filter(|&c| seen(c)).map(|c| excess[c] * laser_rgb[c]).sum::<f64>() / norm;
-    [0, 1, 2].map(|c| if blind[c] { along * laser_rgb[c] } else { excess[c] })
+}
+
+/// The multiple of the laser's colour `laser_rgb` that `values` (R, G, B) show in the
+/// channels `seen`, by least squares over them; `None` when those channels carry less than
+/// [`SEEN_SHARE`] of the laser's brightest.
+fn along_seen(values: [f64; 3], seen: [bool; 3], laser_rgb: [f64; 3]) -> Option<f64> {
+    let norm: f64 = (0..3).filter(|&k| seen[k]).map(|k| laser_rgb[k] * laser_rgb[k]).sum();
+    let top = laser_rgb.iter().copied().fold(0.0, f64::max);
+    (norm >= (SEEN_SHARE * top).powi(2))
+        .then(|| (0..3).filter(|&k| seen[k]).map(|k| values[k] * laser_rgb[k]).sum::<f64>() / norm)
 }
 
 /// The ring's pixels on the surface the blob lies on. A ring that crosses a board square's
