@@ -459,7 +459,8 @@ fn clipped_surfaces(clips: &[u8], roi: Roi) -> Vec<bool> {
 /// contrast as its unclipped channels show it: a cyan square in clear water clips green and
 /// blue, and a dot on it shows only in red, which the map's weights count against it (a dot
 /// 145 levels over the square in red scored below the square). There each pixel's unclipped
-/// channels are read along the laser's colour ([`seen_through_clipping`]'s estimate).
+/// channels are read along the laser's colour ([`along_seen`], as the colour fill-in reads
+/// them).
 fn see_through_clipped_surfaces(
     img: &ColourView,
     roi: Roi,

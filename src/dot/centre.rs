@@ -60,7 +60,9 @@ pub(super) fn refine_centre(img: &ColourView, rough: Vec2, blob_radius_px: f64, 
             // thresholded centroid, whose few surviving pixels are at the noise's mercy.
             matched_filter_peak(img, c, r_in, blob_radius_px, &|r, g, b| background.residual(r, g, b))?
         } else {
-            clipped_core_centre(img, &window, c, r_in).or_else(|| disc.centroid_with_core(background.floor))?
+            disc.nearest_white
+                .and_then(|seed| clipped_core_centre(img, &window, c, r_in, seed))
+                .or_else(|| disc.centroid_with_core(background.floor))?
         };
         let moved = (next - c).norm();
         c = next;
@@ -193,10 +195,11 @@ impl Background {
     }
 }
 
-/// Centroid of the white core (all channels clipped) nearest `c`: its white pixels joined
-/// through near-white ones (JPEG leaves a clipped core speckled), when it has at least
-/// `MIN_CORE_PX` of them and lies wholly within `EDGE_SHARE` of the disc of `r_in`.
-fn clipped_core_centre(img: &ColourView, window: &Window, c: Vec2, r_in: f64) -> Option<Vec2> {
+/// Centroid of the white core (all channels clipped) that holds `seed`, the white pixel
+/// nearest `c` ([`DiscSignal::nearest_white`]): its white pixels joined through near-white
+/// ones (JPEG leaves a clipped core speckled), when it has at least `MIN_CORE_PX` of them
+/// and lies wholly within `EDGE_SHARE` of the disc of `r_in`.
+fn clipped_core_centre(img: &ColourView, window: &Window, c: Vec2, r_in: f64, (sx0, sy0): (i64, i64)) -> Option<Vec2> {
     let w = (window.x1 - window.x0 + 1) as usize;
     let h = (window.y1 - window.y0 + 1) as usize;
     let level = |i: usize| {
@@ -204,8 +207,7 @@ fn clipped_core_centre(img: &ColourView, window: &Window, c: Vec2, r_in: f64) ->
         r.min(g).min(b)
     };
     let dist = |i: usize| ((window.x0 + (i % w) as i64) as f64 - c.x).hypot((window.y0 + (i / w) as i64) as f64 - c.y);
-    let seed =
-        (0..w * h).filter(|&i| dist(i) <= r_in && level(i) >= CLIPPED).min_by(|&a, &b| dist(a).total_cmp(&dist(b)))?;
+    let seed = (sy0 - window.y0) as usize * w + (sx0 - window.x0) as usize;
     let mut seen = vec![false; w * h];
     seen[seed] = true;
     let mut stack = vec![seed];
@@ -263,11 +265,14 @@ struct DiscSignal {
     acc: (f64, f64, f64),
     /// Pixels with clipped green.
     saturated: Vec<(f64, f64)>,
+    /// The pixel clipped in all three channels nearest the centre, if any.
+    nearest_white: Option<(i64, i64)>,
 }
 
 impl DiscSignal {
     fn sum(img: &ColourView, window: &Window, c: Vec2, r_in: f64, background: &Background) -> DiscSignal {
-        let mut disc = DiscSignal { peak: 0f64, acc: (0f64, 0f64, 0f64), saturated: Vec::new() };
+        let mut disc = DiscSignal { peak: 0f64, acc: (0f64, 0f64, 0f64), saturated: Vec::new(), nearest_white: None };
+        let mut white_d = f64::INFINITY;
         for (x, y, d) in window.pixels(c) {
             if d > r_in {
                 continue;
@@ -275,6 +280,9 @@ impl DiscSignal {
             let (r, g, b) = img.rgb(x as usize, y as usize);
             if g >= CLIPPED {
                 disc.saturated.push((x as f64, y as f64));
+                if r.min(b) >= CLIPPED && d < white_d {
+                    (white_d, disc.nearest_white) = (d, Some((x, y)));
+                }
                 continue;
             }
             let e = background.residual(r as f64, g as f64, b as f64);
