@@ -107,6 +107,11 @@ fn examine(board: &Checkerboard, path: &std::path::Path) -> Result<Detection, Vi
     let Some(search) = vision::find_checkerboard(&photo, path, cols, rows)? else {
         return Ok(Detection { size, corners: None });
     };
+    // Corners a partial grid completes were placed through a homography and refined beside
+    // whatever hid them: good enough for a board's plane, not for the lens's distortion.
+    if matches!(search.step, vision::SearchStep::Partial { .. }) {
+        return Ok(Detection { size, corners: None });
+    }
     let mut corners = search.corners_px;
     vision::refine_corners(&photo, &mut corners, cols, rows)
         .map_err(|e| VisionError::OpenCv { path: path.display().to_string(), message: e.message })?;
