@@ -161,7 +161,8 @@ impl SearchStep {
             SearchStep::LocatedAgain { detector: CropDetector::SectorsNormalised, .. } => {
                 calib3d::find_chessboard_corners_sb(grey, size, &mut corners, calib3d::CALIB_CB_NORMALIZE_IMAGE)?
             }
-            SearchStep::Partial { .. } => return complete_partial_board(grey, cols, rows),
+            // The last resort: an OpenCV error in it is a board not found, not a photo lost.
+            SearchStep::Partial { .. } => return Ok(complete_partial_board(grey, cols, rows).unwrap_or(None)),
         };
         Ok((found && corners.len() == (cols * rows) as usize).then(|| corners.to_vec()))
     }
@@ -216,10 +217,17 @@ pub fn find_checkerboard(photo: &Photo, path: &Path, cols: u32, rows: u32) -> Re
             // f i + (f - 1) / 2 in the pixel-centre convention.
             let f = factor as f64;
             let off = (f - 1.0) / 2.0;
-            let corners_px = pts
+            let corners_px: Vec<Vec2> = pts
                 .iter()
                 .map(|p| Vec2::new((p.x as f64 + origin.0) * f + off, (p.y as f64 + origin.1) * f + off))
                 .collect();
+            // A completed board's hidden corners are placed, not seen: they must still lie on
+            // the photo, where they can be refined.
+            let (pw, ph) = (photo.width() as f64, photo.height() as f64);
+            let on_photo = |p: &Vec2| p.x >= 0.0 && p.y >= 0.0 && p.x < pw && p.y < ph;
+            if matches!(step, SearchStep::Partial { .. }) && !corners_px.iter().all(on_photo) {
+                return Ok(None);
+            }
             return Ok(Some(BoardSearch { corners_px, found_at_factor: factor, step }));
         }
     }
@@ -253,7 +261,7 @@ fn complete_partial_board(grey: &impl ToInputArray, cols: u32, rows: u32) -> ope
     }
     let (w, h) = (meta.cols() as usize, meta.rows() as usize);
     let (cols, rows) = (cols as usize, rows as usize);
-    if corners.len() != w * h || 2 * w * h < cols * rows {
+    if cols < 2 || rows < 2 || corners.len() != w * h || 2 * w * h < cols * rows {
         return Ok(None);
     }
     let lattice: Vector<Point2f> = (0..h).flat_map(|y| (0..w).map(move |x| Point2f::new(x as f32, y as f32))).collect();
@@ -364,6 +372,9 @@ fn complete_partial_board(grey: &impl ToInputArray, cols: u32, rows: u32) -> ope
             Point2f::new(px as f32, py as f32)
         })
         .collect();
+    if !full.iter().all(|p| p.x.is_finite() && p.y.is_finite()) {
+        return Ok(None);
+    }
     // The grid's lattice may be the board's mirror image; the detectors that see the whole
     // board number its corners so that the second row lies clockwise of the first in the
     // image, and so does this one.
