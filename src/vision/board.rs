@@ -247,7 +247,9 @@ const PARTIAL_MARGIN_SQUARES: f64 = 3.0;
 ///
 /// A grid of W x H corners lies somewhere on the board, turned by a quarter turn or not.
 /// Each place and turn says which squares around the grid are black and which white, out
-/// to the board's edge (its outermost squares are black at the corners); the place whose
+/// to the board's edge, for a board with a black square at a corner (FishSense's 14 x 10
+/// has all four black; a board with white corners all round would be placed a square off,
+/// which keeps its plane but not its outline); the place whose
 /// squares, sampled through the grid's homography, match best is the board's, and it must
 /// beat every other by [`PARTIAL_MARGIN_SQUARES`]. The grid's homography then puts the
 /// corners it did not see; the caller refines every corner in the photo.
