@@ -102,7 +102,7 @@ pub struct LaserArgs {
     baseline_range_mm: (f64, f64),
 
     /// A used dot must lie within this many pixels of the fitted line's image. The gate the
-    /// fit applies is five times the used dots' median distance from it, at least 2 px (in a
+    /// fit applies is eight times the used dots' median distance from it, at least 2 px (in a
     /// 4000 px wide photo), and at most this.
     #[arg(long, value_name = "PX", default_value = "4", value_parser = parse::positive_px, allow_negative_numbers = true)]
     max_dot_offset_px: f64,

@@ -915,7 +915,7 @@ fn blob_colour(
 /// threshold, 2-3x its core) carries little excess over a ring whose level is off by a few
 /// levels (a stripe's edge, shading, JPEG's blocks), so its mean chroma strays where the
 /// core's does not. On the tuning target-less scenes the units' learned spreads narrowed
-/// (5.6 -> 3.4 and 6.1 -> 4.1 degrees) and three photos whose dots had been refused as
+/// (5.6 -> 3.4 and 6.1 -> 3.4 degrees) and three photos whose dots had been refused as
 /// 13-37 degrees off their unit's colour were answered right, none lost; 0, 1 and 2 px
 /// beyond the core scored within one photo of each other.
 const CORE_DISC_MARGIN_PX: f64 = 0.5;

@@ -517,8 +517,12 @@ fn dot_gate_px(camera: &CameraModel, line: &LaserLine, used: &[(&DotObservation,
 }
 
 /// Multiples of the used dots' median distance from the fit beyond which a dot is an
-/// outlier ([`dot_gate_px`]).
-const DOT_GATE_SCALES: f64 = 5.0;
+/// outlier ([`dot_gate_px`]). Dots with Gaussian noise lie at a Rayleigh distance, whose
+/// median is 1.18 sigma; 8 medians is 9.4 sigma, which no dot of such noise reaches, even
+/// where the median of a dozen dots comes out at half its expectation. At 5 the Monte-Carlo
+/// test of the fit's uncertainty (`tests/laser_uncertainty.rs`, 0.8 px of noise) lost a dot;
+/// on the tuning calibration sets (medians 0.10-0.32 px) 8 catches the same five dots.
+const DOT_GATE_SCALES: f64 = 8.0;
 /// Least gate on a dot's distance from the fit, pixels in a 4000 px wide photo: the bench's
 /// own line between a dot found and a dot centred wrong.
 const DOT_GATE_FLOOR_PX: f64 = 2.0;
@@ -739,7 +743,7 @@ mod tests {
     }
 
     /// A dot centred 2.8 px off among detected dots that scatter by 0.2 px is an outlier
-    /// (inside the user's 4 px, but over 10 times their scatter). The gate is five times the
+    /// (inside the user's 4 px, but over 10 times their scatter). The gate is eight times the
     /// dots' median distance from the line, at least 2 px and at most the user's 4 px: dots
     /// clicked by hand, 1.3 px off, keep the user's gate.
     #[test]
@@ -750,7 +754,11 @@ mod tests {
         }
         let f = fit(&camera(), &obs, Method::Reprojection, &Gates::default()).unwrap();
         let o = f.photos[6].as_ref().unwrap().outlier;
-        assert!(matches!(o, Some(Outlier::OffLine { gate_px, .. }) if gate_px == 2.0), "{o:?}");
+        // 3.2 px from the fit: the old fixed 4 px kept it.
+        assert!(
+            matches!(o, Some(Outlier::OffLine { residual_px, gate_px }) if residual_px < 4.0 && gate_px < 2.5),
+            "{o:?}"
+        );
         let clean = scenes(0.0, 5);
         let gate = |off_px: f64| {
             let used: Vec<(&DotObservation, Vec2)> =
@@ -758,7 +766,7 @@ mod tests {
             dot_gate_px(&camera(), &truth(), &used, 4.0)
         };
         assert_eq!(gate(0.2), 2.0);
-        assert!((gate(0.6) - 3.0).abs() < 1e-6, "{}", gate(0.6));
+        assert!((gate(0.3) - 2.4).abs() < 1e-6, "{}", gate(0.3));
         assert_eq!(gate(1.3), 4.0);
     }
 
