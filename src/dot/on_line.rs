@@ -441,22 +441,21 @@ fn widest_beam_px(camera: &CameraModel, z_m: f64) -> f64 {
 /// no dot.
 pub fn choose(candidates: &[LineCandidate], band_half_width_px: f64) -> Result<LineDot, DotOnLineError> {
     let plausible: Vec<&LineCandidate> = candidates.iter().filter(|c| c.plausible()).collect();
-    // Blobs on the line refused only for their look (colour, outline) say the scene makes
-    // dot-like things here: one that slipped through those tests is as likely. Their weight
-    // counts against the chosen one's confidence.
-    let lookalikes: Vec<&LineCandidate> = candidates
-        .iter()
-        .filter(|c| c.gate.explained() && matches!(c.misfit, Some(Refusal::Ragged | Refusal::OffColour)))
-        .collect();
     let Some(best) = plausible.iter().max_by(|a, b| a.weight().total_cmp(&b.weight())) else {
         return Err(DotOnLineError::NoDot { half_width_px: band_half_width_px });
     };
-    // ... of the same kind: a blob clipped at its centre (a near or bright dot, a glint) and
-    // one that is not (a tuft, a fin) differ in what made them. A dot of 270 levels clipped
-    // at 0.70 m was withheld beside an unclipped tuft whose outline had been refused
-    // (tuning target-less seed 3); no tuning answer went wrong for counting only its kind.
-    let lookalikes: Vec<&LineCandidate> =
-        lookalikes.into_iter().filter(|c| c.candidate.saturated_core == best.candidate.saturated_core).collect();
+    // Blobs on the line refused only for their look (colour, outline) say the scene makes
+    // dot-like things here: one of their kind that slipped through those tests is as likely.
+    // Their weight counts against the chosen one's confidence. Kind: a blob clipped at its
+    // centre (a near or bright dot, a glint) and one that is not (a tuft, a fin) differ in
+    // what made them. A dot of 270 levels clipped at 0.70 m was withheld beside an unclipped
+    // tuft whose outline had been refused (tuning target-less seed 3); no tuning answer went
+    // wrong for counting only its kind.
+    let lookalikes: Vec<&LineCandidate> = candidates
+        .iter()
+        .filter(|c| c.gate.explained() && matches!(c.misfit, Some(Refusal::Ragged | Refusal::OffColour)))
+        .filter(|c| c.candidate.saturated_core == best.candidate.saturated_core)
+        .collect();
     let total: f64 = plausible.iter().map(|c| c.weight()).sum::<f64>()
         + LOOKALIKE_SHARE * lookalikes.iter().map(|c| c.weight()).sum::<f64>();
     let confidence = best.weight() / total;
