@@ -215,6 +215,24 @@ fn the_search_plan_is_bounded_for_every_photo_size() {
     );
 }
 
+/// Renders photo `i` of tuning calibration seed `seed` at the bench's 4000x3000 for each
+/// `(seed, i)` into `dir` as `set{seed}_{i:02}.jpg`, with its board's true corners.
+fn tuning_boards(dir: &Path, photos: &[(u64, usize)]) -> Vec<(PathBuf, Vec<[f64; 2]>)> {
+    photos
+        .par_iter()
+        .map(|&(seed, i)| {
+            let photo = VarietySet::plan(Kind::Calibration, seed, None, 4000).unwrap().render(i);
+            let Some(TargetTruth::Board { corners_px, .. }) = &photo.truth.target else {
+                panic!("seed {seed} photo {i} has no board");
+            };
+            let name = format!("set{seed}_{i:02}");
+            calib_targets::write_photo(dir, &name, &photo.image, photo.truth.effects.jpeg_quality, &photo.truth)
+                .unwrap();
+            (dir.join(format!("{name}.jpg")), corners_px.clone())
+        })
+        .collect()
+}
+
 /// Four far boards (2.5-4 m, tuning calibration seeds 5, 6, 9 and 14 at the bench's
 /// 4000x3000) that no step on the grey image found: their squares differ mostly in one
 /// channel (green in green water, blue in clear blue) or show only equalised. The later
@@ -223,20 +241,7 @@ fn the_search_plan_is_bounded_for_every_photo_size() {
 fn far_boards_seen_in_one_channel_are_found_on_the_located_crop() {
     let dir = Path::new(env!("CARGO_TARGET_TMPDIR")).join("board-search-channels");
     std::fs::create_dir_all(&dir).unwrap();
-    let photos: Vec<(PathBuf, Vec<[f64; 2]>)> = [(5u64, 8usize), (6, 9), (9, 7), (14, 9)]
-        .into_par_iter()
-        .map(|(seed, i)| {
-            let set = VarietySet::plan(Kind::Calibration, seed, None, 4000).unwrap();
-            let photo = set.render(i);
-            let Some(TargetTruth::Board { corners_px, .. }) = &photo.truth.target else {
-                panic!("seed {seed} photo {i} has no board");
-            };
-            let name = format!("set{seed}_{i:02}");
-            calib_targets::write_photo(&dir, &name, &photo.image, photo.truth.effects.jpeg_quality, &photo.truth)
-                .unwrap();
-            (dir.join(format!("{name}.jpg")), corners_px.clone())
-        })
-        .collect();
+    let photos = tuning_boards(&dir, &[(5, 8), (6, 9), (9, 7), (14, 9)]);
     for (path, truth) in &photos {
         let found = search(path, 14, 10, truth);
         println!("{}: {:?}", path.display(), found.as_ref().map(|r| (r.step, r.median_px(), r.worst_px())));
@@ -259,17 +264,7 @@ fn far_boards_seen_in_one_channel_are_found_on_the_located_crop() {
 fn boards_with_bubbles_over_a_few_corners_are_completed_from_the_rest() {
     let dir = Path::new(env!("CARGO_TARGET_TMPDIR")).join("board-search-bubbles");
     std::fs::create_dir_all(&dir).unwrap();
-    let photos: Vec<(PathBuf, Vec<[f64; 2]>)> = [(6u64, 8usize), (9, 9)]
-        .par_iter()
-        .map(|&(seed, i)| {
-            let photo = VarietySet::plan(Kind::Calibration, seed, None, 4000).unwrap().render(i);
-            let Some(TargetTruth::Board { corners_px, .. }) = &photo.truth.target else { panic!("no board") };
-            let name = format!("set{seed}_{i:02}");
-            calib_targets::write_photo(&dir, &name, &photo.image, photo.truth.effects.jpeg_quality, &photo.truth)
-                .unwrap();
-            (dir.join(format!("{name}.jpg")), corners_px.clone())
-        })
-        .collect();
+    let photos = tuning_boards(&dir, &[(6, 8), (9, 9)]);
     for (path, truth) in &photos {
         let r = search(path, 14, 10, truth).unwrap_or_else(|| panic!("{}: board not found", path.display()));
         println!(
