@@ -171,6 +171,10 @@ pub struct CandidateCheck {
     /// 1 sigma of that angle from the blob's noise, degrees.
     #[serde(default)]
     pub colour_angle_sigma_deg: f64,
+    /// Its mean excess (R, G, B) over a background ring beyond its halo, 8-bit levels: what
+    /// its contrast is scored on.
+    #[serde(default)]
+    pub excess_rgb_levels: [f64; 3],
     /// Equivalent radius, pixels, and whether its core is clipped.
     pub radius_px: f64,
     pub saturated: bool,
@@ -204,6 +208,7 @@ impl CandidateCheck {
             colour_sigmas: c.candidate.colour_score,
             colour_angle_deg: c.candidate.colour_angle_rad.to_degrees(),
             colour_angle_sigma_deg: c.candidate.colour_angle_sigma_rad.to_degrees(),
+            excess_rgb_levels: c.candidate.excess_rgb,
             radius_px: c.candidate.radius_px,
             saturated: c.candidate.saturated_core,
             core_radius_px: c.candidate.core_radius_px,
