@@ -746,7 +746,11 @@ fn blob_candidate(
     let core_radius_px = (m.core_pixels as f64 / core::f64::consts::PI).sqrt();
     let colour =
         blob_colour(img, maps, id, rough, (radius_px, core_radius_px), m.saturated_pixels > 0, params.colour.rgb)?;
-    let score = params.colour.score_with(maps.weights, colour.excess_rgb, colour.pixels, maps.sigma);
+    let mut score = params.colour.score_with(maps.weights, colour.excess_rgb, colour.pixels, maps.sigma);
+    if let Some(hue) = &colour.hue {
+        let local = params.colour.score_with(maps.weights, hue.excess_rgb, hue.equivalent_pixels, maps.sigma);
+        (score.angle_rad, score.angle_sigma_rad) = (local.angle_rad, local.angle_sigma_rad);
+    }
     if score.sigmas < params.min_colour_sigmas {
         return None;
     }
@@ -844,6 +848,16 @@ struct BlobColour {
     excess_rgb: [f64; 3],
     pixels: usize,
     filled_in: bool,
+    /// Its hue against the background right around its core, when that can be read
+    /// ([`LOCAL_BACKGROUND_GAP_PX`]).
+    hue: Option<LocalHue>,
+}
+
+/// A blob's mean excess over the median of the pixels just outside its core, and the
+/// count of pixels whose mean, alone, would be as noisy.
+struct LocalHue {
+    excess_rgb: [f64; 3],
+    equivalent_pixels: usize,
 }
 
 /// Measures blob `id`'s colour around `centre` (image pixels) against the mean of a ring
@@ -873,7 +887,7 @@ fn blob_colour(
     let ly = (centre.y - roi.y0 as f64 - ring.1).floor().max(0.0) as usize;
     let hy = ((centre.y - roi.y0 as f64 + ring.1).ceil().max(0.0) as usize).min(roi.h - 1);
     let (mut sig, mut n_sig) = ([0f64; 3], 0usize);
-    let (mut ring_px, mut near) = (Vec::new(), Vec::new());
+    let (mut ring_px, mut near, mut local) = (Vec::new(), Vec::new(), Vec::new());
     for y in ly..=hy {
         for x in lx..=hx {
             if maps.saturated[y * roi.w + x] {
@@ -891,7 +905,13 @@ fn blob_colour(
             if scored {
                 sig = [sig[0] + px[0], sig[1] + px[1], sig[2] + px[2]];
                 n_sig += 1;
-            } else if label != id && d >= ring.0 && d <= ring.1 {
+                continue;
+            }
+            let beyond = d - fringe - LOCAL_BACKGROUND_GAP_PX;
+            if !clipped_core && (label == id || label == 0) && beyond > 0.0 && beyond <= LOCAL_BACKGROUND_PX {
+                local.push(px);
+            }
+            if label != id && d >= ring.0 && d <= ring.1 {
                 ring_px.push(px);
             } else if label != id && d > fringe && d < ring.0 {
                 near.push(px[0] + px[1] + px[2]);
@@ -908,7 +928,42 @@ fn blob_colour(
     let excess_rgb = [sig[0] / ns - mean_bg[0] / nb, sig[1] / ns - mean_bg[1] / nb, sig[2] / ns - mean_bg[2] / nb];
     let blind = [0, 1, 2].map(|c| 2 * bg.iter().filter(|p| p[c] >= CLIPPED as f64).count() > n_bg);
     let seen = seen_through_clipping(excess_rgb, blind, laser_rgb);
-    Some(BlobColour { excess_rgb: seen, pixels: n_sig, filled_in: seen != excess_rgb })
+    let filled_in = seen != excess_rgb;
+    // A channel clipped on the surface has no local contrast either: its fill stands.
+    let hue = (!filled_in && local.len() >= 12).then(|| local_hue(&sig, n_sig, &mut local));
+    Some(BlobColour { excess_rgb: seen, pixels: n_sig, filled_in, hue })
+}
+
+/// How far beyond a blob's core disc the band begins whose median is the background its
+/// hue is read against, pixels. The ring the contrast is read against
+/// lies beyond the blob's halo, 12-20 px out for a faint dot, and on a fish's edge or in a
+/// shaded hollow of reef it sits on another surface than the dot: its mean was off by a few
+/// levels per channel, and over a 30-40 level dot that turned the hue 14-20 degrees off the
+/// unit's colour (tuning target-less seeds 1 photo 8, 4 photo 19), and the dot was refused.
+/// Nearer in, the band carries the dot's own halo, but that is the laser's colour: it takes
+/// from the contrast, not from the hue. Not right at the core: a JPEG stores colour at half
+/// the resolution and rings around a small dot's colour, and a band touching a 2.5 px core
+/// read its hue 40 degrees off (seed 3 photo 5). Gaps of 2-8 px answered within one photo
+/// of each other; at 4 px the tuning target-less photos went 52 -> 56 right of 79, none
+/// lost, and calibration 235 -> 236 of 260.
+const LOCAL_BACKGROUND_GAP_PX: f64 = 4.0;
+/// How wide that band is, pixels.
+const LOCAL_BACKGROUND_PX: f64 = 3.0;
+
+/// Variance of a median of normal samples over that of their mean, for large counts (pi/2).
+const MEDIAN_VARIANCE_RATIO: f64 = core::f64::consts::FRAC_PI_2;
+
+/// The hue of a blob's core (`sig`, the sum over `n_sig` pixels) against the per-channel
+/// median of `local`, the pixels just outside it: a median, because the band may still
+/// cross an edge of the surface.
+fn local_hue(sig: &[f64; 3], n_sig: usize, local: &mut [[f64; 3]]) -> LocalHue {
+    let mid = local.len() / 2;
+    let median = [0, 1, 2].map(|c| local.select_nth_unstable_by(mid, |a, b| a[c].total_cmp(&b[c])).1[c]);
+    let ns = n_sig as f64;
+    let excess_rgb = [0, 1, 2].map(|c| sig[c] / ns - median[c]);
+    // The difference of two noisy means: 1/n_eq = 1/n_core + (pi/2)/n_local.
+    let equivalent = 1.0 / (1.0 / ns + MEDIAN_VARIANCE_RATIO / local.len() as f64);
+    LocalHue { excess_rgb, equivalent_pixels: (equivalent.round() as usize).max(1) }
 }
 
 /// How far beyond a blob's core its colour is read, pixels. A faint dot's halo (out to the
@@ -1174,6 +1229,33 @@ mod tests {
         let dot = dot.unwrap_or_else(|| panic!("no candidate at the dot: {c:?}"));
         let true_angle = p.colour.angle_rad(laser);
         assert!((dot.colour_angle_rad - true_angle).abs() < 0.02, "{} against {true_angle}", dot.colour_angle_rad);
+    }
+
+    /// A dot of 35 levels in a shaded hollow of reef: the surface darkens towards the dot
+    /// in green and blue (the water's cast), by 25 levels under it, half that at 12 px. The
+    /// ring beyond its halo is a dozen levels brighter than the surface under the dot, and
+    /// the hue read against it is 0.20 rad off the laser's; against the band just outside
+    /// the core, on the hollow's floor, 0.02.
+    #[test]
+    fn a_dot_in_a_shaded_hollow_is_read_against_the_surface_right_around_it() {
+        let (w, h) = (200usize, 150usize);
+        let truth = Vec2::new(100.4, 74.7);
+        let laser = [0.2, 1.0, 0.3];
+        let data = paint(w, h, |x, y| {
+            let dot = spot(x, y, truth, 35.0, 2.0);
+            let hollow = spot(x, y, truth, 25.0, 12.0);
+            let noise = grain(x, y);
+            let [r, g, b] = [30.0, 120.0 - 0.5 * hollow, 140.0 - hollow];
+            [r + laser[0] * dot + noise, g + laser[1] * dot + noise, b + laser[2] * dot + noise]
+        });
+        let p = DotDetectorParams::default();
+        let c = find_dot_candidates(&view(&data, w, h), &SearchRegion::default(), &p, 4);
+        let dot = c.iter().find(|c| (c.pixel - truth).norm() < 1.0);
+        let dot = dot.unwrap_or_else(|| panic!("no candidate at the dot: {c:?}"));
+        let true_angle = p.colour.angle_rad(laser);
+        let ring_angle = p.colour.angle_rad(dot.excess_rgb);
+        assert!(ring_angle - true_angle > 0.15, "the ring's hue: {ring_angle} against {true_angle}");
+        assert!((dot.colour_angle_rad - true_angle).abs() < 0.04, "{} against {true_angle}", dot.colour_angle_rad);
     }
 
     /// A board in green water, where the squares' contrast lies along a green laser's
