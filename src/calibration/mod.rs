@@ -65,9 +65,9 @@ impl Calibration {
     pub fn line_search(&self) -> crate::dot::on_line::LineSearch {
         use crate::dot::on_line::{LineSearch, DEFAULT_SEARCH_DEPTHS_M};
         let (lo, hi) = DEFAULT_SEARCH_DEPTHS_M;
-        let depths_m = self.depth_range_m.map_or(DEFAULT_SEARCH_DEPTHS_M, |(near, _)| {
-            ((near * SEARCH_NEAR_FACTOR).clamp(lo, hi), hi)
-        });
+        let depths_m = self
+            .depth_range_m
+            .map_or(DEFAULT_SEARCH_DEPTHS_M, |(near, _)| ((near * SEARCH_NEAR_FACTOR).clamp(lo, hi), hi));
         LineSearch { depths_m, detector: self.dot_detector(), ..LineSearch::with_covariance(self.laser_covariance) }
     }
 
