@@ -103,7 +103,9 @@ pub struct DotCandidate {
     /// part, in noise sigmas ([`LaserColourModel::score`]), scored on the blob's unclipped
     /// pixels and, for a clipped core, its fringe.
     pub colour_score: f64,
-    /// Angle between the blob's chroma and the laser's, radians.
+    /// Angle between the blob's chroma and the laser's, radians: for a blob not clipped at
+    /// its centre, read against the surface just around its core
+    /// (`LOCAL_BACKGROUND_GAP_PX`), else against the ring `excess_rgb` is read against.
     pub colour_angle_rad: f64,
     /// 1-sigma uncertainty of `colour_angle_rad`, radians: the map's noise over the scored
     /// pixels, and for a clipped blob at least [`CLIPPED_CHROMA_SIGMA_RAD`].
@@ -935,17 +937,18 @@ fn blob_colour(
 }
 
 /// How far beyond a blob's core disc the band begins whose median is the background its
-/// hue is read against, pixels. The ring the contrast is read against
-/// lies beyond the blob's halo, 12-20 px out for a faint dot, and on a fish's edge or in a
-/// shaded hollow of reef it sits on another surface than the dot: its mean was off by a few
-/// levels per channel, and over a 30-40 level dot that turned the hue 14-20 degrees off the
-/// unit's colour (tuning target-less seeds 1 photo 8, 4 photo 19), and the dot was refused.
-/// Nearer in, the band carries the dot's own halo, but that is the laser's colour: it takes
-/// from the contrast, not from the hue. Not right at the core: a JPEG stores colour at half
-/// the resolution and rings around a small dot's colour, and a band touching a 2.5 px core
-/// read its hue 40 degrees off (seed 3 photo 5). Gaps of 2-8 px answered within one photo
-/// of each other; at 4 px the tuning target-less photos went 52 -> 56 right of 79, none
-/// lost, and calibration 235 -> 236 of 260.
+/// hue is read against, pixels. The ring the contrast is read against lies beyond the
+/// blob's halo, 12-20 px out for a faint dot, and on a fish's edge or in a shaded hollow of
+/// reef it sits on another surface than the dot: its mean was off by a few levels per
+/// channel, and over a 30-40 level dot that turned the hue 14-20 degrees off the unit's
+/// colour (tuning target-less seeds 1 photo 8, 4 photo 19), and the dot was refused. Nearer
+/// in, the band carries the dot's own halo, but that is the laser's colour: it takes from
+/// the contrast, not from the hue. Not right at the core: a JPEG stores colour at half the
+/// resolution and rings around a small dot's colour, and a band touching a 2.5 px core read
+/// its hue 40 degrees off (seed 3 photo 5). Gaps of 2-8 px answered within one photo of
+/// each other; at 4 px the tuning target-less photos went 52 -> 56 right of 79, none lost,
+/// and calibration 235 -> 236 of 260. On seeds 6-11, rendered after this was chosen, 52 ->
+/// 56 of 77, one lost; wrong dots 3 -> 3.
 const LOCAL_BACKGROUND_GAP_PX: f64 = 4.0;
 /// How wide that band is, pixels.
 const LOCAL_BACKGROUND_PX: f64 = 3.0;
