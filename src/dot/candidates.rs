@@ -1111,6 +1111,14 @@ mod tests {
         peak * (-d2 / (2.0 * sigma_px.powi(2))).exp()
     }
 
+    /// The candidate within 1 px of `truth` that a search of the whole image returns (at most
+    /// 4 candidates); panics, listing them, when there is none.
+    fn candidate_at(data: &[u8], (w, h): (usize, usize), truth: Vec2, params: &DotDetectorParams) -> DotCandidate {
+        let c = find_dot_candidates(&view(data, w, h), &SearchRegion::default(), params, 4);
+        let dot = c.iter().find(|c| (c.pixel - truth).norm() < 1.0).cloned();
+        dot.unwrap_or_else(|| panic!("no candidate at the dot: {c:?}"))
+    }
+
     /// A fixed grain of -2.4 to +2.4 levels.
     fn grain(x: usize, y: usize) -> f64 {
         (((x * 31 + y * 17) % 7) as f64 - 3.0) * 0.8
@@ -1204,9 +1212,7 @@ mod tests {
             let noise = ((x * 7 + y * 13) % 5) as f64 - 2.0;
             [r + 0.2 * dot + noise, g + dot + noise, b + 0.3 * dot + noise]
         });
-        let c = find_dot_candidates(&view(&data, w, h), &SearchRegion::default(), &DotDetectorParams::default(), 4);
-        let dot = c.iter().find(|c| (c.pixel - truth).norm() < 1.0);
-        let dot = dot.unwrap_or_else(|| panic!("no candidate at the dot: {c:?}"));
+        let dot = candidate_at(&data, (w, h), truth, &DotDetectorParams::default());
         assert!(dot.colour_angle_rad < 0.3, "{dot:?}");
     }
 
@@ -1227,9 +1233,7 @@ mod tests {
             [r + laser[0] * dot + noise, g + laser[1] * dot + noise, b + laser[2] * dot + noise]
         });
         let p = DotDetectorParams::default();
-        let c = find_dot_candidates(&view(&data, w, h), &SearchRegion::default(), &p, 4);
-        let dot = c.iter().find(|c| (c.pixel - truth).norm() < 1.0);
-        let dot = dot.unwrap_or_else(|| panic!("no candidate at the dot: {c:?}"));
+        let dot = candidate_at(&data, (w, h), truth, &p);
         let true_angle = p.colour.angle_rad(laser);
         assert!((dot.colour_angle_rad - true_angle).abs() < 0.02, "{} against {true_angle}", dot.colour_angle_rad);
     }
@@ -1252,9 +1256,7 @@ mod tests {
             [r + laser[0] * dot + noise, g + laser[1] * dot + noise, b + laser[2] * dot + noise]
         });
         let p = DotDetectorParams::default();
-        let c = find_dot_candidates(&view(&data, w, h), &SearchRegion::default(), &p, 4);
-        let dot = c.iter().find(|c| (c.pixel - truth).norm() < 1.0);
-        let dot = dot.unwrap_or_else(|| panic!("no candidate at the dot: {c:?}"));
+        let dot = candidate_at(&data, (w, h), truth, &p);
         let true_angle = p.colour.angle_rad(laser);
         let ring_angle = p.colour.angle_rad(dot.excess_rgb);
         assert!(ring_angle - true_angle > 0.15, "the ring's hue: {ring_angle} against {true_angle}");
