@@ -746,15 +746,17 @@ fn blob_candidate(
     // Colour before centring: most blobs of a textured scene fail it, and the centring
     // (three background fits and a matched filter) is the costly step.
     let core_radius_px = (m.core_pixels as f64 / core::f64::consts::PI).sqrt();
-    let colour =
+    let mut colour =
         blob_colour(img, maps, id, rough, (radius_px, core_radius_px), m.saturated_pixels > 0, params.colour.rgb)?;
     let mut score = params.colour.score_with(maps.weights, colour.excess_rgb, colour.pixels, maps.sigma);
-    if let Some(hue) = &colour.hue {
-        let local = params.colour.score_with(maps.weights, hue.excess_rgb, hue.equivalent_pixels, maps.sigma);
-        (score.angle_rad, score.angle_sigma_rad) = (local.angle_rad, local.angle_sigma_rad);
-    }
     if score.sigmas < params.min_colour_sigmas {
         return None;
+    }
+    // The hue only for the blobs that pass: its medians are wasted on the rest.
+    if !colour.band.is_empty() {
+        let hue = local_hue(colour.core_mean_rgb, colour.pixels, &mut colour.band);
+        let local = params.colour.score_with(maps.weights, hue.excess_rgb, hue.equivalent_pixels, maps.sigma);
+        (score.angle_rad, score.angle_sigma_rad) = (local.angle_rad, local.angle_sigma_rad);
     }
     let snr = m.snr_with_core_at(
         fringe_contrast(maps.weights, colour.excess_rgb, m.saturated_pixels),
@@ -850,9 +852,11 @@ struct BlobColour {
     excess_rgb: [f64; 3],
     pixels: usize,
     filled_in: bool,
-    /// Its hue against the background right around its core, when that can be read
-    /// ([`LOCAL_BACKGROUND_GAP_PX`]).
-    hue: Option<LocalHue>,
+    /// Mean (R, G, B) of the scored pixels, 8-bit levels.
+    core_mean_rgb: [f64; 3],
+    /// The pixels of the band just outside its core that its hue is read against
+    /// ([`LOCAL_BACKGROUND_GAP_PX`]); empty when the hue is the ring's.
+    band: Vec<[f64; 3]>,
 }
 
 /// A blob's mean excess over the median of the pixels just outside its core, and the
@@ -927,13 +931,16 @@ fn blob_colour(
     }
     let (ns, nb) = (n_sig as f64, n_bg as f64);
     let mean_bg = bg.iter().fold([0f64; 3], |a, p| [a[0] + p[0], a[1] + p[1], a[2] + p[2]]);
-    let excess_rgb = [sig[0] / ns - mean_bg[0] / nb, sig[1] / ns - mean_bg[1] / nb, sig[2] / ns - mean_bg[2] / nb];
+    let core_mean_rgb = sig.map(|v| v / ns);
+    let excess_rgb = [0, 1, 2].map(|c| core_mean_rgb[c] - mean_bg[c] / nb);
     let blind = [0, 1, 2].map(|c| 2 * bg.iter().filter(|p| p[c] >= CLIPPED as f64).count() > n_bg);
     let seen = seen_through_clipping(excess_rgb, blind, laser_rgb);
     let filled_in = seen != excess_rgb;
     // A channel clipped on the surface has no local contrast either: its fill stands.
-    let hue = (!filled_in && local.len() >= 12).then(|| local_hue(&sig, n_sig, &mut local));
-    Some(BlobColour { excess_rgb: seen, pixels: n_sig, filled_in, hue })
+    if filled_in || local.len() < 12 {
+        local.clear();
+    }
+    Some(BlobColour { excess_rgb: seen, pixels: n_sig, filled_in, core_mean_rgb, band: local })
 }
 
 /// How far beyond a blob's core disc the band begins whose median is the background its
@@ -956,16 +963,15 @@ const LOCAL_BACKGROUND_PX: f64 = 3.0;
 /// Variance of a median of normal samples over that of their mean, for large counts (pi/2).
 const MEDIAN_VARIANCE_RATIO: f64 = core::f64::consts::FRAC_PI_2;
 
-/// The hue of a blob's core (`sig`, the sum over `n_sig` pixels) against the per-channel
-/// median of `local`, the pixels just outside it: a median, because the band may still
-/// cross an edge of the surface.
-fn local_hue(sig: &[f64; 3], n_sig: usize, local: &mut [[f64; 3]]) -> LocalHue {
-    let mid = local.len() / 2;
-    let median = [0, 1, 2].map(|c| local.select_nth_unstable_by(mid, |a, b| a[c].total_cmp(&b[c])).1[c]);
-    let ns = n_sig as f64;
-    let excess_rgb = [0, 1, 2].map(|c| sig[c] / ns - median[c]);
-    // The difference of two noisy means: 1/n_eq = 1/n_core + (pi/2)/n_local.
-    let equivalent = 1.0 / (1.0 / ns + MEDIAN_VARIANCE_RATIO / local.len() as f64);
+/// The hue of a blob's core (`core_mean`, over `core_pixels`) against the per-channel median
+/// of `band`, the pixels just outside it: a median, because the band may still cross an
+/// edge of the surface.
+fn local_hue(core_mean: [f64; 3], core_pixels: usize, band: &mut [[f64; 3]]) -> LocalHue {
+    let mid = band.len() / 2;
+    let median = [0, 1, 2].map(|c| band.select_nth_unstable_by(mid, |a, b| a[c].total_cmp(&b[c])).1[c]);
+    let excess_rgb = [0, 1, 2].map(|c| core_mean[c] - median[c]);
+    // The difference of two noisy means: 1/n_eq = 1/n_core + (pi/2)/n_band.
+    let equivalent = 1.0 / (1.0 / core_pixels as f64 + MEDIAN_VARIANCE_RATIO / band.len() as f64);
     LocalHue { excess_rgb, equivalent_pixels: (equivalent.round() as usize).max(1) }
 }
 
