@@ -12,7 +12,7 @@
 
 use super::centre::{refine_centre, weighted_centre};
 use super::colour::LaserColourModel;
-use super::outline::{clipped_at_centre, outline_roughness, ContrastMap};
+use super::outline::{clipped_at_centre, hollow, outline_roughness, ContrastMap};
 use fslcal_core::Vec2;
 
 /// An 8-bit level at or above which a channel is taken as clipped (JPEG rounding keeps
@@ -114,7 +114,8 @@ pub struct DotCandidate {
     /// ([`super::outline::outline_roughness`]); `None` when not measured (a blob too small
     /// or too faint for its outline to mean anything, or clipped at its centre). 1 when a
     /// clipped part of [`CLIPPED_MIN_RADIUS_PX`] or more lies around its centre and not at
-    /// it ([`super::outline::clipped_at_centre`]): no beam's footprint.
+    /// it ([`super::outline::clipped_at_centre`]), or when its middle is dim against its
+    /// bright part ([`super::outline::hollow`], a bubble's rim): no beam's footprint.
     pub outline_roughness: Option<f64>,
     /// Mean excess (R, G, B) of the scored pixels over the local background, 8-bit levels:
     /// what a calibration learns the laser's colour from.
@@ -782,7 +783,7 @@ fn blob_candidate(
     let clipped_radius_px = (m.saturated_pixels as f64 / core::f64::consts::PI).sqrt();
     let outline_roughness = if clipped_core {
         None
-    } else if clipped_radius_px >= CLIPPED_MIN_RADIUS_PX {
+    } else if clipped_radius_px >= CLIPPED_MIN_RADIUS_PX || hollow_blob(img, maps, pixels, at, m.peak) {
         Some(1.0)
     } else {
         (core_radius_px >= OUTLINE_MIN_RADIUS_PX && m.peak >= OUTLINE_MIN_PEAK_SIGMAS * maps.sigma)
@@ -824,6 +825,25 @@ fn blob_candidate(
         excess_rgb: colour.excess_rgb,
         colour_filled_in: colour.filled_in,
     })
+}
+
+/// Whether the blob of `pixels` is dim at `at` (ROI pixels) against its core ([`hollow`]).
+/// A clipped pixel counts at the peak, and so does a white one: on a surface clipped all
+/// over, the clipped map leaves out a dot's core (white) and its contrast map reads it by
+/// its unclipped channels, which it has none of.
+fn hollow_blob(img: &ColourView, maps: &RoiMaps, pixels: &[usize], at: Vec2, peak: f64) -> bool {
+    let roi = maps.roi;
+    let level = |i: usize| {
+        let (r, g, b) = img.rgb(roi.x0 + i % roi.w, roi.y0 + i / roi.w);
+        if maps.saturated[i] || r.min(g).min(b) >= CLIPPED {
+            peak
+        } else {
+            maps.excess[i] as f64
+        }
+    };
+    let half = 0.5 * peak;
+    let core: Vec<usize> = pixels.iter().copied().filter(|&i| level(i) >= half).collect();
+    hollow(&level, (roi.w, roi.h), &core, at, maps.sigma)
 }
 
 /// Smallest half-peak radius whose outline's shape is measured, pixels: below it the pixel

@@ -176,8 +176,9 @@ pub enum Refusal {
     /// and the blob's own measurement noise explain: a pigment (algae, a fin, tape), not
     /// the laser's light.
     OffColour,
-    /// Its half-peak outline is lobed or ragged beyond [`MAX_OUTLINE_ROUGHNESS`]: a beam's
-    /// footprint is an ellipse.
+    /// Its half-peak outline is lobed or ragged beyond [`MAX_OUTLINE_ROUGHNESS`], or its
+    /// middle is dim (a bubble's rim): a beam's footprint is an ellipse, brightest at its
+    /// centre.
     Ragged,
 }
 

@@ -6,6 +6,10 @@
 //! was measured departed from their best ellipse by at most 8.3% of the radius; on the
 //! held-out ones (every blob of the whole frame) 5 of 7 measured true dots stayed under 6%,
 //! while 329 of 492 algae tufts and 2 110 of 2 220 texture blobs exceeded 10%.
+//!
+//! A beam's footprint is also brightest at its centre. A bubble is a lit rim around a clear
+//! middle, as round as a dot and, in green water, the laser's hue: its middle gives it away
+//! ([`hollow`]).
 
 use fslcal_core::Vec2;
 use nalgebra::{SMatrix, SVector};
@@ -14,8 +18,6 @@ use nalgebra::{SMatrix, SVector};
 const RAYS: usize = 64;
 /// Step along a ray, pixels.
 const STEP_PX: f64 = 0.25;
-/// Least peak, in noise sigmas, at which a blob dim at its centre is judged hollow.
-const HOLLOW_MIN_PEAK_SIGMAS: f64 = 10.0;
 
 /// A blob's contrast map: row-major `width * height` levels; a clipped pixel has no contrast
 /// of its own and counts at the level the caller gives ([`ContrastMap::at`]'s `peak`).
@@ -55,16 +57,17 @@ impl ContrastMap<'_> {
 
 /// The roughness of the half-`peak` outline around `centre` (map pixels): the RMS distance
 /// of the outline from its best-fitting ellipse as a share of its mean radius, less what
-/// noise of `sigma` levels explains. `None` when the outline cannot be traced (a ray runs
-/// `reach_px` without falling below half the peak, or leaves the map).
+/// noise of `sigma` levels explains. `None` when the outline cannot be traced (the centre
+/// is below half the peak, or a ray runs `reach_px` without falling below half the peak,
+/// or leaves the map).
 pub(super) fn outline_roughness(map: &ContrastMap, centre: Vec2, peak: f64, sigma: f64, reach_px: f64) -> Option<f64> {
     // Half the level at the centre, not half the blob's brightest pixel: a faint blob's
     // brightest pixel is its noise's, and a dot is brightest at its centre anyway.
     let level = centre_level(map, centre, peak)?;
-    // A blob whose centre is not its bright part is no spot, when its brightest part is
-    // well above the noise (a faint dot's brightest pixel is mostly noise).
+    // A blob dim at its centre has no half-peak outline around it to trace; whether it is
+    // hollow is [`hollow`]'s to say, which reads the centre over more pixels than these.
     if level < 0.5 * peak {
-        return (peak >= HOLLOW_MIN_PEAK_SIGMAS * sigma).then_some(1.0);
+        return None;
     }
     let peak = level;
     let half = 0.5 * peak;
@@ -112,6 +115,59 @@ pub(super) fn outline_roughness(map: &ContrastMap, centre: Vec2, peak: f64, sigm
     let noise = 2.5 * sigma / (peak.max(1e-9) * median.max(1e-9));
     Some((rough * rough - noise * noise).max(0.0).sqrt())
 }
+
+/// Whether a blob is dimmer at `centre` than over its bright part: a bubble's lit rim
+/// around its clear middle, not a beam's footprint, which is brightest at its centre. The
+/// bright part is `core` (row-major indices into a `width` x `height` map of the blob's
+/// pixels at or above half its peak, or clipped); `level` is a pixel's contrast, levels.
+/// The middle is a disc at `centre` half the core's RMS radius across (at least
+/// [`HOLLOW_MIN_DISC_PX`]). On tuning target-less seeds 0-11 every true dot the search chose
+/// kept at least 0.80 of its core's mean there, and 24 of 56 bubbles under 0.70; a dim
+/// middle must also be more than [`HOLLOW_NOISE_SIGMAS`] of the disc's noise (`sigma` per
+/// pixel) below the core's mean, so a faint dot's noise is never a hollow.
+pub(super) fn hollow(
+    level: &dyn Fn(usize) -> f64,
+    (width, height): (usize, usize),
+    core: &[usize],
+    centre: Vec2,
+    sigma: f64,
+) -> bool {
+    if core.is_empty() || width == 0 || height == 0 {
+        return false;
+    }
+    let n = core.len() as f64;
+    let core_mean = core.iter().map(|&i| level(i)).sum::<f64>() / n;
+    let (mx, my) = core.iter().fold((0.0, 0.0), |(x, y), &i| (x + (i % width) as f64 / n, y + (i / width) as f64 / n));
+    let spread =
+        core.iter().map(|&i| ((i % width) as f64 - mx).powi(2) + ((i / width) as f64 - my).powi(2)).sum::<f64>() / n;
+    let r = (0.5 * spread.sqrt()).max(HOLLOW_MIN_DISC_PX);
+    let (mut sum, mut count) = (0.0, 0usize);
+    for y in (centre.y - r).floor().max(0.0) as usize..=((centre.y + r).ceil().max(0.0) as usize).min(height - 1) {
+        for x in (centre.x - r).floor().max(0.0) as usize..=((centre.x + r).ceil().max(0.0) as usize).min(width - 1) {
+            if (x as f64 - centre.x).powi(2) + (y as f64 - centre.y).powi(2) <= r * r {
+                sum += level(y * width + x);
+                count += 1;
+            }
+        }
+    }
+    if count == 0 {
+        return false;
+    }
+    let middle = sum / count as f64;
+    let noise = HOLLOW_NOISE_SIGMAS * NOISE_CORRELATION * sigma / (count as f64).sqrt();
+    middle < HOLLOW_SHARE * core_mean && core_mean - middle > noise
+}
+
+/// Share of its core's mean level below which a blob's middle is dim ([`hollow`]).
+const HOLLOW_SHARE: f64 = 0.7;
+/// Least radius of the middle's disc in [`hollow`], pixels: a small core's RMS radius is a
+/// pixel or two, and a disc of 1.5 px takes in the 3 x 3 pixels at the centre.
+const HOLLOW_MIN_DISC_PX: f64 = 1.5;
+/// How far, in noise sigmas of the disc's mean, a dim middle lies below the core's mean.
+const HOLLOW_NOISE_SIGMAS: f64 = 3.0;
+/// A JPEG's 8 x 8 blocks and the optics' blur make neighbouring pixels' noise move together:
+/// a mean over n pixels is this many times noisier than sigma / sqrt(n).
+const NOISE_CORRELATION: f64 = 3.0;
 
 /// Whether the clipped pixels of `map` cover at least half the 3 x 3 pixels at `centre`
 /// (true when the centre is at the map's edge: nothing to judge there). A beam's footprint
@@ -197,6 +253,38 @@ mod tests {
             [(52.0, 40.0), (34.0, 50.0), (34.0, 30.0)].iter().any(|(px, py)| (x - px).hypot(y - py) <= 5.0)
         });
         assert!(judge(&patches));
+    }
+
+    /// A bubble as the renderer draws one: a lit rim 30 levels over the water, radius 9 px,
+    /// with a highlight in its clear middle 4 px off centre, and noise of 3 levels. Its
+    /// middle is dim: hollow. A blurred dot of the same peak is not, nor is a faint dot
+    /// (peak 12 levels, four times the noise), whose brightest pixels are its noise's.
+    #[test]
+    fn a_bubbles_clear_middle_is_hollow_and_a_dots_centre_is_not() {
+        let (w, h) = (60usize, 60usize);
+        let c = Vec2::new(30.2, 29.7);
+        let noise = |x: f64, y: f64| 3.0 * ((x * 12.9898 + y * 78.233).sin() * 43_758.547).fract();
+        let bubble = map_of(w, h, |x, y| {
+            let d = (x - c.x).hypot(y - c.y);
+            let rim = 30.0 * (-(d - 9.0).powi(2) / (2.0 * 1.2f64.powi(2))).exp();
+            let glint = 45.0 * (-((x - c.x + 3.0).powi(2) + (y - c.y + 3.0).powi(2)) / 2.0).exp();
+            rim + glint + noise(x, y)
+        });
+        let spot = |peak: f64, sigma_px: f64| {
+            map_of(w, h, move |x, y| {
+                peak * (-((x - c.x).powi(2) + (y - c.y).powi(2)) / (2.0 * sigma_px * sigma_px)).exp() + noise(x, y)
+            })
+        };
+        let (dot, faint) = (spot(45.0, 3.0), spot(12.0, 2.0));
+        let judge = |m: &[f32], sigma: f64| {
+            let peak = m.iter().copied().fold(0f32, f32::max);
+            let core: Vec<usize> = (0..w * h).filter(|&i| m[i] >= 0.5 * peak).collect();
+            let level = |i: usize| m[i] as f64;
+            hollow(&level, (w, h), &core, c, sigma)
+        };
+        assert!(judge(&bubble, 1.0));
+        assert!(!judge(&dot, 1.0));
+        assert!(!judge(&faint, 1.0));
     }
 
     #[test]
