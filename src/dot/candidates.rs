@@ -1289,6 +1289,29 @@ mod tests {
         assert!((dot.colour_angle_rad - true_angle).abs() < 0.04, "{} against {true_angle}", dot.colour_angle_rad);
     }
 
+    /// A bubble in green water, lit along the laser's hue: a rim 30 levels bright around a
+    /// clear middle, with a highlight 3 px off its centre. Its outline is no beam's (1); a
+    /// dot of the same peak and size beside it is smooth.
+    #[test]
+    fn a_bubble_is_no_beams_footprint_and_a_dot_beside_it_is() {
+        let (w, h) = (200usize, 120usize);
+        let (bubble, truth) = (Vec2::new(60.4, 60.2), Vec2::new(140.3, 59.6));
+        let data = paint(w, h, |x, y| {
+            let d = (x as f64 - bubble.x).hypot(y as f64 - bubble.y);
+            let rim = 30.0 * (-(d - 9.0).powi(2) / (2.0 * 1.3f64.powi(2))).exp();
+            let glint = spot(x, y, bubble - Vec2::new(2.0, 2.0), 40.0, 1.2);
+            let lit = rim + glint + spot(x, y, truth, 40.0, 4.0);
+            let noise = grain(x, y);
+            [30.0 + 0.3 * lit + noise, 90.0 + lit + noise, 70.0 + 0.3 * lit + noise]
+        });
+        let params = DotDetectorParams::default();
+        let dot = candidate_at(&data, (w, h), truth, &params);
+        assert!(dot.outline_roughness.is_some_and(|r| r < 0.05), "{dot:?}");
+        let c = find_dot_candidates(&view(&data, w, h), &SearchRegion::default(), &params, 4);
+        let rim = c.iter().find(|c| (c.pixel - bubble).norm() < 9.0).expect("the bubble is a candidate");
+        assert_eq!(rim.outline_roughness, Some(1.0), "{rim:?}");
+    }
+
     /// A board in green water, where the squares' contrast lies along a green laser's
     /// colour: against a window's mean over black and white squares the map's noise hides
     /// the dot; against its own square's level it stands out.
