@@ -120,11 +120,11 @@ pub(super) fn outline_roughness(map: &ContrastMap, centre: Vec2, peak: f64, sigm
 /// around its clear middle, not a beam's footprint, which is brightest at its centre. The
 /// bright part is `core` (row-major indices into a `width` x `height` map of the blob's
 /// pixels at or above half its peak, or clipped); `level` is a pixel's contrast, levels.
-/// The middle is a disc at `centre` half the core's RMS radius across (at least
+/// The middle is a disc at `centre` whose radius is half the core's RMS radius (at least
 /// [`HOLLOW_MIN_DISC_PX`]). On tuning target-less seeds 0-11 every true dot the search chose
-/// kept at least 0.80 of its core's mean there, and 24 of 56 bubbles under 0.70; a dim
+/// kept at least 0.80 of its core's mean there, and 25 of 58 bubbles under 0.70; a dim
 /// middle must also be more than [`HOLLOW_NOISE_SIGMAS`] of the disc's noise (`sigma` per
-/// pixel) below the core's mean, so a faint dot's noise is never a hollow.
+/// pixel) below the core's mean, so that a faint dot's noise is not read as one.
 pub(super) fn hollow(
     level: &dyn Fn(usize) -> f64,
     (width, height): (usize, usize),
