@@ -117,6 +117,9 @@ pub struct DotCandidate {
     /// it ([`super::outline::clipped_at_centre`]), or when its middle is dim against its
     /// bright part ([`super::outline::hollow`], a bubble's rim): no beam's footprint.
     pub outline_roughness: Option<f64>,
+    /// Found beside a glint's clipped part inside a larger blob, as a spot of its own
+    /// (`beside_clipped`); the larger blob is a candidate too.
+    pub beside_clipped: bool,
     /// Mean excess (R, G, B) of the scored pixels over the local background, 8-bit levels:
     /// what a calibration learns the laser's colour from.
     pub excess_rgb: [f64; 3],
@@ -257,13 +260,130 @@ pub fn find_dot_candidates(
         let id = next;
         next += 1;
         let pixels = maps.flood_fill(start, id, params.max_area_px);
-        if let Some(c) = blob_candidate(img, region, params, &maps, &pixels, id) {
-            candidates.push(c);
+        let Some(c) = blob_candidate(img, region, params, &maps, &pixels, id) else {
+            continue;
+        };
+        let on_clipped = c.saturated_core;
+        let at = c.pixel;
+        candidates.push(c);
+        if region.band.is_none() || !on_clipped {
+            continue;
+        }
+        if let Some(beside) = beside_clipped(img, &mut maps, &pixels, next) {
+            next += 1;
+            let b = blob_candidate(img, region, params, &maps, &beside, next - 1);
+            // A spot the blob's own candidate is centred on is no second one.
+            let b = b.filter(|b| (b.pixel - at).norm() >= 2.0 * b.radius_px.max(2.0));
+            candidates.extend(b.map(|b| DotCandidate { beside_clipped: true, ..b }));
         }
     }
     candidates.sort_by(|a, b| b.snr.total_cmp(&a.snr));
     candidates.truncate(max);
     candidates
+}
+
+/// Least distance, pixels (8-connected steps), from a blob's clipped part at which a peak of
+/// its own is a second spot ([`beside_clipped`]): a clipped core's fringe lies within two or
+/// three pixels of it.
+const BESIDE_CLIPPED_GAP_PX: u16 = 4;
+
+/// The fringe of a clipped part, pixels (8-connected steps): where its colour is read.
+const CLIPPED_FRINGE_PX: u16 = 2;
+
+/// Least ratio of a clipped part's fringe's mean excess (R, G, B averaged) to the length of
+/// its chroma at which the clipped part is a glint's: light of the water's own colour, near
+/// white. On the tuning target-less photos four glints' fringes measured 8.7-14.3, the
+/// fringe of a dot clipped beside a glint 1.05, and a clipped tuft's 1.4.
+const GLINT_FRINGE_WHITENESS: f64 = 3.0;
+
+/// A second spot inside a blob whose candidate sits on a glint's clipped part: a dot beside
+/// a glint, which the glint's clipped core bridges into one blob centred on the glint, off
+/// the laser's line (tuning target-less seed 4 photo 8: a dot 13 px from a glint, one
+/// 458 px blob). The clipped part is a glint's when its fringe is fainter along the laser's
+/// colour than the spot and near white ([`GLINT_FRINGE_WHITENESS`]); a dot's clipped core
+/// is ringed by its own brightest unclipped pixels, of the laser's colour. The spot is the
+/// blob's unclipped pixel of most contrast at least [`BESIDE_CLIPPED_GAP_PX`] from every
+/// clipped one, when it is a local peak above the map's threshold (a clipped core's own
+/// fringe rises toward the core, so its farthest pixels are no peak). Its pixels, those
+/// reached from it at half its contrast or more and clear of the fringe, are labelled `id`
+/// and returned.
+fn beside_clipped(img: &ColourView, maps: &mut RoiMaps, pixels: &[usize], id: u32) -> Option<Vec<usize>> {
+    let (w, h) = (maps.roi.w, maps.roi.h);
+    let own = maps.label[*pixels.first()?];
+    let (x0, x1, y0, y1) = pixels.iter().fold((usize::MAX, 0, usize::MAX, 0), |(a, b, c, d), &i| {
+        (a.min(i % w), b.max(i % w), c.min(i / w), d.max(i / w))
+    });
+    // Steps from the clipped part over the blob's box (multi-source breadth first).
+    let bw = x1 - x0 + 1;
+    let cell = |i: usize| (i / w - y0) * bw + (i % w - x0);
+    let mut steps = vec![u16::MAX; bw * (y1 - y0 + 1)];
+    let mut queue: Vec<usize> = pixels.iter().copied().filter(|&i| maps.saturated[i]).collect();
+    if queue.is_empty() || queue.len() == pixels.len() {
+        return None;
+    }
+    for &i in &queue {
+        steps[cell(i)] = 0;
+    }
+    let mut k = 0;
+    while k < queue.len() {
+        let i = queue[k];
+        k += 1;
+        let next = steps[cell(i)].saturating_add(1);
+        for (x, y) in neighbours8(i % w, i / w, w, h) {
+            if (x0..=x1).contains(&x) && (y0..=y1).contains(&y) && steps[cell(y * w + x)] > next {
+                steps[cell(y * w + x)] = next;
+                queue.push(y * w + x);
+            }
+        }
+    }
+    let unclipped = || pixels.iter().copied().filter(|&i| !maps.saturated[i]);
+    let peak = unclipped()
+        .filter(|&i| maps.excess[i] >= maps.threshold && steps[cell(i)] >= BESIDE_CLIPPED_GAP_PX)
+        .max_by(|&a, &b| maps.excess[a].total_cmp(&maps.excess[b]))?;
+    let level = maps.excess[peak];
+    let is_peak = neighbours8(peak % w, peak / w, w, h)
+        .all(|(x, y)| !maps.saturated[y * w + x] && maps.excess[y * w + x] <= level);
+    let fringe: Vec<usize> = unclipped().filter(|&i| steps[cell(i)] <= CLIPPED_FRINGE_PX).collect();
+    let fringe_level = fringe.iter().map(|&i| maps.excess[i] as f64).sum::<f64>() / fringe.len().max(1) as f64;
+    if !is_peak || fringe.is_empty() || fringe_level >= level as f64 {
+        return None;
+    }
+    // The fringe's colour over the blob's surroundings (unlabelled pixels up to 4 px out).
+    let mean_rgb = |idx: &mut dyn Iterator<Item = usize>| {
+        let (mut sum, mut n) = ([0f64; 3], 0f64);
+        for i in idx {
+            let (r, g, b) = img.rgb(maps.roi.x0 + i % w, maps.roi.y0 + i / w);
+            sum = [sum[0] + r as f64, sum[1] + g as f64, sum[2] + b as f64];
+            n += 1.0;
+        }
+        (n > 0.0).then(|| sum.map(|v| v / n))
+    };
+    let (ax, bx, ay, by) = (x0.saturating_sub(4), (x1 + 4).min(w - 1), y0.saturating_sub(4), (y1 + 4).min(h - 1));
+    let label = &maps.label;
+    let around = mean_rgb(&mut (ay..=by).flat_map(|y| (ax..=bx).map(move |x| y * w + x)).filter(|&i| label[i] == 0))?;
+    let lit = mean_rgb(&mut fringe.iter().copied())?;
+    let excess = [lit[0] - around[0], lit[1] - around[1], lit[2] - around[2]];
+    let grey = (excess[0] + excess[1] + excess[2]) / 3.0;
+    let chroma = excess.iter().map(|e| (e - grey).powi(2)).sum::<f64>().sqrt();
+    if grey < GLINT_FRINGE_WHITENESS * chroma {
+        return None;
+    }
+    let mut spot = vec![peak];
+    maps.label[peak] = id;
+    let mut k = 0;
+    while k < spot.len() {
+        let i = spot[k];
+        k += 1;
+        for (x, y) in neighbours8(i % w, i / w, w, h) {
+            let j = y * w + x;
+            let clear = (x0..=x1).contains(&x) && (y0..=y1).contains(&y) && steps[cell(j)] > CLIPPED_FRINGE_PX;
+            if maps.label[j] == own && clear && maps.excess[j] >= 0.5 * level {
+                maps.label[j] = id;
+                spot.push(j);
+            }
+        }
+    }
+    Some(spot)
 }
 
 /// The searched part of the image: the search polygon's bounding box clipped to the image,
@@ -822,6 +942,7 @@ fn blob_candidate(
             score.angle_sigma_rad
         },
         outline_roughness,
+        beside_clipped: false,
         excess_rgb: colour.excess_rgb,
         colour_filled_in: colour.filled_in,
     })
@@ -1310,6 +1431,40 @@ mod tests {
         let c = find_dot_candidates(&view(&data, w, h), &SearchRegion::default(), &params, 4);
         let rim = c.iter().find(|c| (c.pixel - bubble).norm() < 9.0).expect("the bubble is a candidate");
         assert_eq!(rim.outline_roughness, Some(1.0), "{rim:?}");
+    }
+
+    /// A dot 13 px from a glint: the glint's core clips white and its halo, the light's own
+    /// near-white colour with a little of the water's green, bridges the two into one blob
+    /// whose candidate sits on the glint. Along a line through the dot, the dot is found as a
+    /// spot of its own beside the glint; a search of the whole image (no line) does not split.
+    #[test]
+    fn a_dot_beside_a_glint_is_found_apart_from_it() {
+        let (w, h) = (200usize, 120usize);
+        let (glint, truth) = (Vec2::new(90.0, 60.0), Vec2::new(103.2, 60.4));
+        let data = paint(w, h, |x, y| {
+            let d = (x as f64 - glint.x).hypot(y as f64 - glint.y);
+            let core = if d <= 3.0 { 255.0 } else { 0.0 };
+            let halo = 70.0 * (-d * d / (2.0 * 6.0 * 6.0)).exp();
+            let dot = spot(x, y, truth, 50.0, 2.5);
+            let noise = grain(x, y);
+            [
+                30.0 + core + halo + 0.25 * dot + noise,
+                90.0 + core + 1.2 * halo + dot + noise,
+                70.0 + core + halo + 0.4 * dot + noise,
+            ]
+        });
+        let params = DotDetectorParams::default();
+        let line = vec![Vec2::new(0.0, 60.4), Vec2::new(199.0, 60.4)];
+        let polygon = vec![Vec2::new(0.0, 30.0), Vec2::new(199.0, 30.0), Vec2::new(199.0, 90.0), Vec2::new(0.0, 90.0)];
+        let band = SearchRegion { polygon: polygon.clone(), band: Some((line, 30.0)), squares: Vec::new() };
+        let c = find_dot_candidates(&view(&data, w, h), &band, &params, 8);
+        let on_glint = c.iter().find(|c| (c.pixel - glint).norm() < 3.0);
+        assert!(on_glint.is_some_and(|g| g.saturated_core), "the merged blob sits on the glint: {c:?}");
+        let dot = c.iter().find(|c| (c.pixel - truth).norm() < 1.0);
+        assert!(dot.is_some_and(|d| d.beside_clipped), "{c:?}");
+        let whole = SearchRegion { polygon, band: None, squares: Vec::new() };
+        let c = find_dot_candidates(&view(&data, w, h), &whole, &params, 8);
+        assert!(c.iter().all(|c| (c.pixel - truth).norm() >= 1.0 && !c.beside_clipped), "{c:?}");
     }
 
     /// A board in green water, where the squares' contrast lies along a green laser's

@@ -496,7 +496,13 @@ fn search_pieces(
         let region = SearchRegion { polygon, band: Some((line.to_vec(), hw)), squares: Vec::new() };
         for c in find_dot_candidates(img, &region, params, PIECE_CANDIDATES) {
             // Neighbouring pieces overlap: one blob, one candidate.
-            if !found.iter().any(|f| (f.pixel - c.pixel).norm() < 2.0 * f.radius_px.max(c.radius_px).max(2.0)) {
+            // A spot split from beside a clipped part lies inside its parent's blob: it is
+            // the same spot only as another piece's split.
+            let same = |f: &DotCandidate| {
+                f.beside_clipped == c.beside_clipped
+                    && (f.pixel - c.pixel).norm() < 2.0 * f.radius_px.max(c.radius_px).max(2.0)
+            };
+            if !found.iter().any(same) {
                 found.push(c);
             }
         }
