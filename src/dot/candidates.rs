@@ -292,8 +292,9 @@ const CLIPPED_FRINGE_PX: u16 = 2;
 
 /// Least ratio of a clipped part's fringe's mean excess (R, G, B averaged) to the length of
 /// its chroma at which the clipped part is a glint's: light of the water's own colour, near
-/// white. On the tuning target-less photos four glints' fringes measured 8.7-14.3, the
-/// fringe of a dot clipped beside a glint 1.05, and a clipped tuft's 1.4.
+/// white. On the tuning target-less photos two glints' fringes measured 8.7-11.4 (one, in
+/// four pieces of the band) and 14.3, a clipped dot's fringe 1.05 and another clipped
+/// blob's 1.4.
 const GLINT_FRINGE_WHITENESS: f64 = 3.0;
 
 /// A second spot inside a blob whose candidate sits on a glint's clipped part: a dot beside
