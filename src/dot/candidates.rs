@@ -266,6 +266,10 @@ pub fn find_dot_candidates(
         let on_clipped = c.saturated_core;
         let at = c.pixel;
         candidates.push(c);
+        // Only along a line, where the line's gate judges the split spot against its parent.
+        // On a target the consensus over photos picks among the candidates; an earlier form
+        // of the split there changed three tuning companion calibrations, and this one has
+        // not been measured there.
         if region.band.is_none() || !on_clipped {
             continue;
         }
