@@ -272,8 +272,15 @@ impl LaserColourModel {
     /// measurement noise explain ([`OFF_COLOUR_SIGMAS`] sigmas of both). Only a learned
     /// colour judges: the prior spans every green laser and would refuse none of them.
     pub fn off_colour(&self, angle_rad: f64, angle_sigma_rad: f64) -> bool {
+        self.off_colour_ratio(angle_rad, angle_sigma_rad).is_some_and(|r| r > 1.0)
+    }
+
+    /// A blob's chroma angle over the most this laser's spread and the blob's own noise
+    /// explain ([`OFF_COLOUR_SIGMAS`] sigmas of both): over 1 is off-colour. `None` under the
+    /// prior, which judges no blob.
+    pub fn off_colour_ratio(&self, angle_rad: f64, angle_sigma_rad: f64) -> Option<f64> {
         matches!(self.source, ColourSource::Learned { .. })
-            && angle_rad > OFF_COLOUR_SIGMAS * self.spread_rad.hypot(angle_sigma_rad)
+            .then(|| angle_rad / (OFF_COLOUR_SIGMAS * self.spread_rad.hypot(angle_sigma_rad)))
     }
 }
 

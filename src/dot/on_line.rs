@@ -86,6 +86,17 @@ pub const MAX_OUTLINE_ROUGHNESS: f64 = 0.10;
 /// at 0.05 two more wrong.
 const LOOKALIKE_SHARE: f64 = 0.12;
 
+/// Times the off-colour limit ([`crate::dot::colour::OFF_COLOUR_SIGMAS`] sigmas of the
+/// unit's spread and the blob's noise) beyond which a blob's chroma makes it no look-alike:
+/// a tuft 30-50 degrees off a laser of 4 degrees' spread is another pigment, and one of its
+/// kind is no likelier to have slipped through the colour test than anything else. On the
+/// tuning target-less seeds 12-17 four visible dots were withheld beside such a tuft (49, 45
+/// and 37, 32, 21 degrees off) and none was wrong. At 3 (from counting every look-alike):
+/// 2 of them found, nothing else changed on seeds 0-17; at 2: 3 found and one dot
+/// centred 3.4 px off taken on seed 5 (a tuft 147 degrees off had withheld it); at 1.5 also
+/// a phantom on a laser-off photo.
+const UNLIKE_COLOUR_RATIO: f64 = 3.0;
+
 /// Weight of a dot-like blob's signal in the choice between plausible candidates: a
 /// candidate's relative likelihood is `exp(-chi2 / 2) * snr^SNR_POWER`.
 const SNR_POWER: f64 = 2.0;
@@ -135,6 +146,9 @@ pub struct LineCandidate {
     pub misfit: Option<Refusal>,
     /// Found by the second, more sensitive look.
     pub sensitive: bool,
+    /// Its chroma lies beyond [`UNLIKE_COLOUR_RATIO`] times the off-colour limit: refused or
+    /// not for its look, it is no kin of the laser's dot.
+    pub unlike_colour: bool,
 }
 
 impl LineCandidate {
@@ -352,17 +366,16 @@ pub fn judge_candidate(
     // The band reaches past the line's ends: a blob there implies a depth outside the search.
     let (near, far) = search.depths_m;
     let near = if candidate.saturated_core { near.min(CLIPPED_NEAR_M) } else { near };
+    let colour_ratio =
+        search.detector.colour.off_colour_ratio(candidate.colour_angle_rad, candidate.colour_angle_sigma_rad);
     let misfit = if gate.depth_m < near || gate.depth_m > far {
         Some(Refusal::OutOfRange)
     } else {
-        misfit(camera, &candidate, gate.depth_m).or_else(|| {
-            let colour = &search.detector.colour;
-            colour
-                .off_colour(candidate.colour_angle_rad, candidate.colour_angle_sigma_rad)
-                .then_some(Refusal::OffColour)
-        })
+        misfit(camera, &candidate, gate.depth_m)
+            .or_else(|| colour_ratio.is_some_and(|r| r > 1.0).then_some(Refusal::OffColour))
     };
-    Some(LineCandidate { candidate, gate, misfit, sensitive })
+    let unlike_colour = colour_ratio.is_some_and(|r| r > UNLIKE_COLOUR_RATIO);
+    Some(LineCandidate { candidate, gate, misfit, sensitive, unlike_colour })
 }
 
 /// Nearest depth a blob clipped at its centre is taken at, metres, however far the
@@ -455,7 +468,7 @@ pub fn choose(candidates: &[LineCandidate], band_half_width_px: f64) -> Result<L
     let lookalikes: Vec<&LineCandidate> = candidates
         .iter()
         .filter(|c| c.gate.explained() && matches!(c.misfit, Some(Refusal::Ragged | Refusal::OffColour)))
-        .filter(|c| c.candidate.saturated_core == best.candidate.saturated_core)
+        .filter(|c| c.candidate.saturated_core == best.candidate.saturated_core && !c.unlike_colour)
         .collect();
     let total: f64 = plausible.iter().map(|c| c.weight()).sum::<f64>()
         + LOOKALIKE_SHARE * lookalikes.iter().map(|c| c.weight()).sum::<f64>();
@@ -608,6 +621,7 @@ mod tests {
             gate: gate(offset_px),
             misfit,
             sensitive: false,
+            unlike_colour: false,
         };
         let dot = blob(100.0, None, 0.2);
         let alone = choose(std::slice::from_ref(&dot), 80.0).expect("one plausible blob");
@@ -643,6 +657,41 @@ mod tests {
         let clipped_tuft =
             LineCandidate { candidate: DotCandidate { saturated_core: true, ..ragged.candidate.clone() }, ..ragged };
         assert!(choose(&[clipped, clipped_tuft], 80.0).is_err(), "a clipped look-alike counts against a clipped dot");
+    }
+
+    /// Under a learned colour of 4 degrees' spread, a blob refused 20 degrees off the laser's
+    /// colour is a look-alike and withholds a weaker dot beside it; one 40 degrees off (over
+    /// [`UNLIKE_COLOUR_RATIO`] times the 12-degree limit) is no kin of the dot and does not.
+    #[test]
+    fn a_blob_far_off_the_lasers_colour_is_no_look_alike() {
+        let (camera, laser) = (tg6_camera(), fsl_laser());
+        let unit =
+            fslcal_core::unit_file::LaserColour { rgb: [0.25, 0.9, 0.36], spread_rad: 4f32.to_radians(), dots: 6 };
+        let colour = crate::dot::colour::LaserColourModel::from_unit(&unit).expect("a green laser");
+        let detector = DotDetectorParams { colour, ..DotDetectorParams::default() };
+        let search = LineSearch { detector, ..LineSearch::default() };
+        let at = |z: f64, angle_deg: f64, snr: f64| {
+            let pixel = camera.project(&laser.point_at_depth(z)).expect("in front of the camera");
+            let c = DotCandidate {
+                radius_px: 4.0,
+                core_radius_px: 3.0,
+                snr,
+                colour_score: snr,
+                colour_angle_rad: angle_deg.to_radians(),
+                colour_angle_sigma_rad: 0.5f64.to_radians(),
+                ..crate::dot::on_target::hand_candidate(pixel)
+            };
+            judge_candidate(&camera, &laser, &search, c, false).expect("on the line")
+        };
+        let dot = at(2.0, 2.0, 50.0);
+        assert!(dot.plausible() && !dot.unlike_colour, "{dot:?}");
+        let kin = at(1.2, 20.0, 200.0);
+        assert_eq!((kin.misfit, kin.unlike_colour), (Some(Refusal::OffColour), false));
+        assert!(matches!(choose(&[dot.clone(), kin], 80.0), Err(DotOnLineError::Ambiguous { lookalikes: 1, .. })));
+        let unlike = at(1.2, 40.0, 200.0);
+        assert_eq!((unlike.misfit, unlike.unlike_colour), (Some(Refusal::OffColour), true));
+        let found = choose(&[dot.clone(), unlike], 80.0).expect("a pigment far off the laser's colour");
+        assert_eq!(found.pixel, dot.candidate.pixel);
     }
 
     /// Rendered 4000x3000 scenes near and far, with glints and a green reflection elsewhere:
