@@ -453,7 +453,7 @@ impl RoiMaps {
         let (g, saturated) = laser_contrast(img, roi, weights, lit, see, largest_core_px(params.max_area_px, squares));
         let mut excess = minus_local_background(&g, roi, params.background_radius_px);
         board_background(&g, roi, squares, &mut excess);
-        let sigma = robust_noise(&excess);
+        let sigma = robust_noise(&excess, &square_edges(roi, squares));
         let threshold = (params.threshold_sigma * sigma).max(params.min_excess_levels) as f32;
         // Freed before the labels are made: on a near board's ROI each map is tens of MB.
         drop(g);
@@ -734,6 +734,27 @@ fn board_background(g: &[f32], roi: Roi, squares: &[[Vec2; 4]], excess: &mut [f3
     }
 }
 
+/// The pixels of the ROI near a square's edge (within [`SQUARE_EDGE_SHARE`] of its side,
+/// either way), where [`board_background`] leaves the blur between a black and a white
+/// square: not the photo's noise. A board at 3-5 m has squares of 30-50 px whose blurred
+/// edges cover a third of them, and counted in the noise they set the threshold over a
+/// dot of 46 levels (tuning calibration seed 27 photo 7: noise 7.2 levels, threshold 36;
+/// off the edges 3.6 and 18). On the tuning calibration seeds 0-31, 5 more dots right of 356,
+/// one more wrong dot caught as an outlier, none used. Empty without squares.
+fn square_edges(roi: Roi, squares: &[[Vec2; 4]]) -> Vec<bool> {
+    if squares.is_empty() {
+        return Vec::new();
+    }
+    let mut edges = vec![false; roi.w * roi.h];
+    for quad in squares {
+        for_pixels_in(roi, &scaled_quad(quad, 1.0 + 2.0 * SQUARE_EDGE_SHARE), |i| edges[i] = true);
+    }
+    for quad in squares {
+        for_pixels_in(roi, &scaled_quad(quad, 1.0 - 2.0 * SQUARE_EDGE_SHARE), |i| edges[i] = false);
+    }
+    edges
+}
+
 /// The median of `g` over the middle half (by side) of a square, sampled on a grid of at
 /// most 24 x 24; `None` when the square has no sample in the ROI.
 fn square_level(g: &[f32], roi: Roi, quad: &[Vec2; 4]) -> Option<f32> {
@@ -794,10 +815,16 @@ fn for_pixels_in(roi: Roi, quad: &[Vec2; 4], mut f: impl FnMut(usize)) {
     }
 }
 
-/// Robust noise sigma of the excess: the median absolute deviation over a subsample, never
-/// below half a level.
-fn robust_noise(excess: &[f32]) -> f64 {
-    let mut sample: Vec<f32> = excess.iter().step_by(7).copied().collect();
+/// Robust noise sigma of the excess: the median absolute deviation over a subsample of the
+/// pixels off the squares' edges (`edges`, empty when there are none), never below half a
+/// level.
+fn robust_noise(excess: &[f32], edges: &[bool]) -> f64 {
+    let on_edge = |i: usize| edges.get(i).copied().unwrap_or(false);
+    let mut sample: Vec<f32> = (0..excess.len()).step_by(7).filter(|&i| !on_edge(i)).map(|i| excess[i]).collect();
+    if sample.len() < excess.len() / 70 {
+        // Edges cover nearly all of the ROI: the squares are too small to have a middle.
+        sample = excess.iter().step_by(7).copied().collect();
+    }
     if sample.is_empty() {
         return 1.0;
     }
@@ -1554,6 +1581,27 @@ mod tests {
         let c = find_dot_candidates(&view(&data, w, h), &region, &DotDetectorParams::default(), 8);
         let dot = c.iter().find(|c| (c.pixel - truth).norm() < 0.5);
         assert!(dot.is_some(), "{c:?}");
+        assert_eq!(c.len(), 1, "no square edge or corner is a candidate: {c:?}");
+    }
+
+    /// A far board (30 px squares) whose squares' edges are blurred over about 5 px: the blur
+    /// is no noise, and a faint dot in a square's middle stands out against the noise of the
+    /// squares' middles. Counted in the noise, the edges set the threshold over the dot.
+    #[test]
+    fn a_faint_dot_on_a_far_board_is_judged_against_the_squares_noise_not_their_edges() {
+        let (w, h, side) = (300usize, 210usize, 30usize);
+        let truth = Vec2::new(136.4, 104.7);
+        let k = side as f64 / (2.5 * std::f64::consts::PI);
+        let data = paint(w, h, |x, y| {
+            let across = |v: usize| (k * (std::f64::consts::PI * v as f64 / side as f64).sin()).tanh();
+            let white = 0.5 + 0.5 * across(x) * across(y);
+            let [r, g, b] = [40.0 + 100.0 * white, 60.0 + 150.0 * white, 20.0 + 40.0 * white];
+            let (dot, noise) = (spot(x, y, truth, 20.0, 2.2), 1.5 * grain(x, y));
+            [r + 0.19 * dot + noise, g + dot + noise, b + 0.42 * dot + noise]
+        });
+        let region = over_board_9x6(side, board_9x6(side));
+        let c = find_dot_candidates(&view(&data, w, h), &region, &DotDetectorParams::default(), 8);
+        assert!(c.iter().any(|c| (c.pixel - truth).norm() < 0.5), "{c:?}");
         assert_eq!(c.len(), 1, "no square edge or corner is a candidate: {c:?}");
     }
 
