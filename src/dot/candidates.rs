@@ -738,9 +738,11 @@ fn board_background(g: &[f32], roi: Roi, squares: &[[Vec2; 4]], excess: &mut [f3
 /// either way), where [`board_background`] leaves the blur between a black and a white
 /// square: not the photo's noise. A board at 3-5 m has squares of 30-50 px whose blurred
 /// edges cover a third of them, and counted in the noise they set the threshold over a
-/// dot of 46 levels (tuning calibration seed 27 photo 7: noise 7.2 levels, threshold 36;
-/// off the edges 3.6 and 18). On the tuning calibration seeds 0-31, 5 more dots right of 356,
-/// one more wrong dot caught as an outlier, none used. Empty without squares.
+/// dot's contrast of 29 levels (tuning calibration seed 27 photo 7: noise 7.2 levels,
+/// threshold 36; off the edges 3.6 and 18). On the tuning calibration seeds 0-31, 5 more
+/// dots right of 356, one more wrong dot caught as an outlier, none used; on the earlier
+/// held-out sets 13 more right of 549, and 3 more dots centred 3.6-4.5 px off used in fits
+/// (the fit's gate let them in). Empty without squares.
 fn square_edges(roi: Roi, squares: &[[Vec2; 4]]) -> Vec<bool> {
     if squares.is_empty() {
         return Vec::new();
