@@ -1661,10 +1661,47 @@ mod tests {
         let data = render(true);
         let first = find_dot_candidates(&view(&data, w, h), &SearchRegion::default(), &p, 8);
         assert!(first.iter().all(|c| (c.pixel - truth).norm() > 5.0), "the first look saw it: {first:?}");
-        let look = |data: &[u8]| find_near(Surface::Checkerboard, &view(data, w, h), Vec2::zeros(), truth, 16.0, &p);
+        let look =
+            |data: &[u8]| find_near(Surface::Checkerboard, &view(data, w, h), Vec2::zeros(), truth, 16.0, &[], &p);
         let dot = look(&data).expect("the second look finds the dot");
         assert!((dot.pixel - truth).norm() < 1.0, "{:?}", dot.pixel);
         assert!(look(&render(false)).is_none(), "a clipped square alone is no dot");
+    }
+
+    /// The same light square on a board, the dot 8 px from its edge: the second look's disc
+    /// takes in the dark square beside it. Seen through its red, the clipped square sits at a
+    /// level of its own; against the disc's mean over both squares it floods as one blob
+    /// with no background left to read its colour against, and the dot is lost. Against each
+    /// square's own level the dot is found.
+    #[test]
+    fn the_second_look_on_a_board_reads_a_clipped_square_against_its_own_level() {
+        use crate::dot::near_prediction::find_near;
+        use crate::dot::on_target::Surface;
+        let (w, h, side) = (400usize, 300usize, 40usize);
+        // On the white square spanning x 80-120, y 80-120, 8 px from its left edge.
+        let truth = Vec2::new(88.3, 101.6);
+        assert!(on_white(88, 101, side) && !on_white(79, 101, side));
+        let data = paint(w, h, |x, y| {
+            let dot = spot(x, y, truth, 60.0, 2.5);
+            let noise = grain(x, y);
+            if on_white(x, y, side) {
+                [36.0 + 0.45 * dot + noise, 262.0 + dot + noise, 262.0 + 0.2 * dot + noise]
+            } else {
+                [18.0 + 0.45 * dot + noise, 120.0 + dot + noise, 125.0 + 0.2 * dot + noise]
+            }
+        });
+        let unit = fslcal_core::unit_file::LaserColour { rgb: [0.49, 0.86, 0.13], spread_rad: 0.06, dots: 8 };
+        let p = DotDetectorParams {
+            colour: LaserColourModel::from_unit(&unit).expect("a green laser"),
+            ..Default::default()
+        };
+        let squares = board_9x6(side);
+        let look = |squares: &[[Vec2; 4]]| {
+            find_near(Surface::Checkerboard, &view(&data, w, h), Vec2::zeros(), truth, 16.0, squares, &p)
+        };
+        let dot = look(&squares).expect("against each square's level the dot is found");
+        assert!((dot.pixel - truth).norm() < 1.0, "{:?}", dot.pixel);
+        assert!(look(&[]).is_none_or(|c| (c.pixel - truth).norm() > 1.0), "against the disc's mean it was lost");
     }
 
     /// A 9 x 6 board of 60 px squares with a near dot on the one white square whose green

@@ -14,13 +14,15 @@ pub fn disc_radius_px(max_dot_offset_px: f64) -> f64 {
 
 /// The strongest candidate within `radius_px` of `predicted` (full-image pixels) in `view`,
 /// whose top-left pixel is at `offset` in the full image, with the detector made
-/// [`DotDetectorParams::sensitive`].
+/// [`DotDetectorParams::sensitive`]; on a checkerboard's `squares` (full-image pixels) each
+/// square's level is the background.
 pub fn find_near(
     surface: Surface,
     view: &ColourView<'_>,
     offset: Vec2,
     predicted: Vec2,
     radius_px: f64,
+    squares: &[[Vec2; 4]],
     detector: &DotDetectorParams,
 ) -> Option<DotCandidate> {
     // An octagon circumscribing the disc; the band then trims it to the disc itself.
@@ -30,7 +32,8 @@ pub fn find_near(
             predicted - offset + Vec2::new(a.cos(), a.sin()) * radius_px / (std::f64::consts::PI / 8.0).cos()
         })
         .collect();
-    let region = SearchRegion { polygon, band: Some((vec![predicted - offset], radius_px)), squares: Vec::new() };
+    let squares = squares.iter().map(|q| q.map(|p| p - offset)).collect();
+    let region = SearchRegion { polygon, band: Some((vec![predicted - offset], radius_px)), squares };
     on_target::find(surface, view, &region, &detector.sensitive(), 1).into_iter().next().map(|mut c| {
         c.pixel += offset;
         c

@@ -223,6 +223,15 @@ pub fn examine_photo(job: &LaserJob, path: &Path) -> Result<PhotoResult, LaserEr
     examine(job, path, &CropBudget::new())
 }
 
+/// A checkerboard target's squares in the image, from its refined inner corners; none for
+/// a slate.
+fn board_squares(job: &LaserJob, corners: &[Vec2]) -> Vec<[Vec2; 4]> {
+    match &job.target {
+        Target::Checkerboard(b) => on_target::board_squares(corners, b.inner_cols as usize, b.inner_rows as usize),
+        _ => Vec::new(),
+    }
+}
+
 /// [`examine_photo`], keeping the board's pixels while `budget` allows.
 fn examine(job: &LaserJob, path: &Path, budget: &CropBudget) -> Result<PhotoResult, LaserError> {
     let located = match locate_target(&job.target, &job.camera, path)? {
@@ -233,12 +242,7 @@ fn examine(job: &LaserJob, path: &Path, budget: &CropBudget) -> Result<PhotoResu
     let (candidates, dot_source) = match job.hand_dots.get(path) {
         Some(px) => (vec![hand_candidate(px)], DotSource::Hand),
         None => {
-            let squares = match &job.target {
-                Target::Checkerboard(b) => {
-                    on_target::board_squares(&corners, b.inner_cols as usize, b.inner_rows as usize)
-                }
-                _ => Vec::new(),
-            };
+            let squares = board_squares(job, &corners);
             let region = SearchRegion { polygon: outline.clone(), band: None, squares };
             // Blobs no dot could be at the target's distance are dropped before the cap, so
             // a crowd of them cannot push the dot out.
@@ -299,6 +303,11 @@ fn look_near(job: &LaserJob, path: &Path, evidence: &PhotoEvidence, hit: Vec3) -
     let predicted = job.camera.project(&hit)?;
     let radius = near_prediction::disc_radius_px(job.gates.max_dot_offset_px);
     let surface = job.target.surface();
+    // Each square's own level is the background, as in the first look: a light square whose
+    // green and blue clip is seen through its red, at a level of its own, and against the
+    // disc's mean over it and its neighbours the whole square was one blob (tuning
+    // calibration seed 30 photo 9).
+    let squares = board_squares(job, &evidence.corners_px);
     // The kept board pixels serve when the search disc (plus the background window) lies
     // inside them; otherwise decode the photo again.
     if let Some(crop) = &evidence.board_pixels {
@@ -309,11 +318,11 @@ fn look_near(job: &LaserJob, path: &Path, evidence: &PhotoEvidence, hit: Vec3) -
             && predicted.x + margin <= o.x + crop.width as f64
             && predicted.y + margin <= o.y + crop.height as f64;
         if inside {
-            return near_prediction::find_near(surface, &crop.view(), o, predicted, radius, &job.detector);
+            return near_prediction::find_near(surface, &crop.view(), o, predicted, radius, &squares, &job.detector);
         }
     }
     let photo: Photo = EncodedPhoto::read(path).ok()?.decode().ok()?;
-    near_prediction::find_near(surface, &photo.colour(), Vec2::zeros(), predicted, radius, &job.detector)
+    near_prediction::find_near(surface, &photo.colour(), Vec2::zeros(), predicted, radius, &squares, &job.detector)
 }
 
 /// Runs the whole chain. `progress` is called once per photo examined.
