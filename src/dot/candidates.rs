@@ -315,9 +315,7 @@ const GLINT_FRINGE_WHITENESS: f64 = 3.0;
 fn beside_clipped(img: &ColourView, maps: &mut RoiMaps, pixels: &[usize], id: u32) -> Option<Vec<usize>> {
     let (w, h) = (maps.roi.w, maps.roi.h);
     let own = maps.label[*pixels.first()?];
-    let (x0, x1, y0, y1) = pixels.iter().fold((usize::MAX, 0, usize::MAX, 0), |(a, b, c, d), &i| {
-        (a.min(i % w), b.max(i % w), c.min(i / w), d.max(i / w))
-    });
+    let (x0, x1, y0, y1) = blob_box(pixels, w);
     // Steps from the clipped part over the blob's box (multi-source breadth first).
     let bw = x1 - x0 + 1;
     let cell = |i: usize| (i / w - y0) * bw + (i % w - x0);
@@ -842,6 +840,13 @@ fn robust_noise(excess: &[f32], edges: &[bool]) -> f64 {
 /// Bounding box of a blob in ROI pixels, inclusive: `(min x, max x, min y, max y)`.
 pub(super) type BlobBox = (usize, usize, usize, usize);
 
+/// The [`BlobBox`] of `pixels` (row-major indices into a map `w` pixels wide).
+fn blob_box(pixels: &[usize], w: usize) -> BlobBox {
+    pixels.iter().fold((usize::MAX, 0, usize::MAX, 0), |(a, b, c, d), &i| {
+        (a.min(i % w), b.max(i % w), c.min(i / w), d.max(i / w))
+    })
+}
+
 /// What a blob that looks like a dot measures.
 struct BlobMeasures {
     /// Peak contrast of its unclipped pixels (the threshold if it has none), 8-bit levels.
@@ -1246,16 +1251,12 @@ const SURFACE_SPLIT_LEVELS: f64 = 60.0;
 
 /// A blob's peak, SNR and box; `None` for an elongated blob.
 fn measure_blob(maps: &RoiMaps, pixels: &[usize]) -> Option<BlobMeasures> {
-    let saturated = &maps.saturated;
-    let sat_count = pixels.iter().filter(|&&i| saturated[i]).count();
-    let clipped_centroid = (sat_count > 0).then(|| {
-        let w = maps.roi.w;
-        let sum = pixels
-            .iter()
-            .filter(|&&i| saturated[i])
-            .fold(Vec2::zeros(), |a, &i| a + Vec2::new((i % w) as f64, (i / w) as f64));
-        sum / sat_count as f64
-    });
+    let (saturated, w) = (&maps.saturated, maps.roi.w);
+    let (sat_count, sat_sum) = pixels
+        .iter()
+        .filter(|&&i| saturated[i])
+        .fold((0usize, Vec2::zeros()), |(n, sum), &i| (n + 1, sum + Vec2::new((i % w) as f64, (i / w) as f64)));
+    let clipped_centroid = (sat_count > 0).then(|| sat_sum / sat_count as f64);
     let green: Vec<f32> = pixels.iter().filter(|&&i| !saturated[i]).map(|&i| maps.excess[i].max(0.0)).collect();
     // A core clipped throughout shows no contrast of its own: count it at the threshold, and
     // let its fringe's colour decide (in `blob_colour`).
@@ -1268,15 +1269,7 @@ fn measure_blob(maps: &RoiMaps, pixels: &[usize]) -> Option<BlobMeasures> {
     // showing) ranked below eight blobs of algae and was cut (tuning seed 9).
     let snr = (mass + sat_count as f64 * peak) / (maps.sigma * (pixels.len() as f64).sqrt());
     // Elongated blobs are edges or streaks, not a dot.
-    let w = maps.roi.w;
-    let (mut mnx, mut mxx, mut mny, mut mxy) = (usize::MAX, 0, usize::MAX, 0);
-    for &i in pixels {
-        let (x, y) = (i % w, i / w);
-        mnx = mnx.min(x);
-        mxx = mxx.max(x);
-        mny = mny.min(y);
-        mxy = mxy.max(y);
-    }
+    let (mnx, mxx, mny, mxy) = blob_box(pixels, w);
     let (bw, bh) = ((mxx - mnx + 1) as f64, (mxy - mny + 1) as f64);
     if bw.max(bh) / bw.min(bh) > 3.0 || (pixels.len() as f64) < 0.3 * bw * bh {
         return None;
