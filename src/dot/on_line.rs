@@ -366,15 +366,15 @@ pub fn judge_candidate(
     // The band reaches past the line's ends: a blob there implies a depth outside the search.
     let (near, far) = search.depths_m;
     let near = if candidate.saturated_core { near.min(CLIPPED_NEAR_M) } else { near };
-    let colour_ratio =
-        search.detector.colour.off_colour_ratio(candidate.colour_angle_rad, candidate.colour_angle_sigma_rad);
+    let colour = &search.detector.colour;
+    let (angle, sigma) = (candidate.colour_angle_rad, candidate.colour_angle_sigma_rad);
     let misfit = if gate.depth_m < near || gate.depth_m > far {
         Some(Refusal::OutOfRange)
     } else {
         misfit(camera, &candidate, gate.depth_m)
-            .or_else(|| colour_ratio.is_some_and(|r| r > 1.0).then_some(Refusal::OffColour))
+            .or_else(|| colour.off_colour(angle, sigma).then_some(Refusal::OffColour))
     };
-    let unlike_colour = colour_ratio.is_some_and(|r| r > UNLIKE_COLOUR_RATIO);
+    let unlike_colour = colour.off_colour_ratio(angle, sigma).is_some_and(|r| r > UNLIKE_COLOUR_RATIO);
     Some(LineCandidate { candidate, gate, misfit, sensitive, unlike_colour })
 }
 
