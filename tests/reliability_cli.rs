@@ -348,6 +348,36 @@ fn inspect_of_a_tampered_file_shows_it_and_exits_1() {
     assert!(stderr(&o).contains("cal.fslcal: tampered"), "{}", stderr(&o));
 }
 
+/// `fslcal inspect --json FILE | head -0`: the reader has left before fslcal writes, and
+/// fslcal ends as a Unix filter does (SIGPIPE), not with a panic and a backtrace.
+#[cfg(all(target_os = "linux", target_env = "gnu"))]
+#[test]
+#[allow(unsafe_code)]
+fn a_reader_that_left_ends_fslcal_quietly() {
+    use std::os::fd::{FromRawFd, OwnedFd};
+    use std::os::unix::process::ExitStatusExt;
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let key = keygen(d, "lead");
+    let cal = import(d, &key, "cal", 0.0, 1_780_306_200);
+    let mut fds = [0; 2];
+    // SAFETY: `pipe` fills both descriptors, each then owned by one OwnedFd.
+    let (read, write) = unsafe {
+        assert_eq!(libc::pipe(fds.as_mut_ptr()), 0);
+        (OwnedFd::from_raw_fd(fds[0]), OwnedFd::from_raw_fd(fds[1]))
+    };
+    // The reader leaves before fslcal starts: its first write meets a closed pipe.
+    drop(read);
+    let o = Command::new(env!("CARGO_BIN_EXE_fslcal"))
+        .args(["inspect", "--json", s(&cal)])
+        .stdout(std::process::Stdio::from(write))
+        .output()
+        .expect("run fslcal");
+    let err = stderr(&o);
+    assert!(!err.contains("panicked"), "{err}");
+    assert_eq!(o.status.signal(), Some(libc::SIGPIPE), "ended by SIGPIPE: {:?} {err}", o.status);
+}
+
 /// A small camera, a calibration of it (JSON), and photos of nothing: grey JPEGs of its
 /// size, plus one file that is not a photo at all.
 struct Blank {

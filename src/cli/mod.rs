@@ -82,25 +82,36 @@ pub fn error_line(err: &anyhow::Error) -> String {
 
 /// Parses the command line and runs the subcommand.
 pub fn run() -> anyhow::Result<ExitCode> {
-    limit_allocator_arenas();
+    set_up_process();
     run_parsed(Cli::parse())
 }
 
-/// glibc gives each thread that allocates its own heap arena, and memory freed there goes
-/// back to the system only from the top of the heap; with every photo's maps, crops and
-/// thumbnails freed in whichever worker made them, the arenas held a 300-photo `laser
-/// --report` at 305-340 MB peak over three runs, against 298-301 MB with two arenas
-/// (issue 17's limit is 330). The cost is the workers' contention on the shared arena:
-/// `laser` on 16 photos takes the same time, `measure --masks` on 100 photos 3.1-3.3 s
-/// instead of 2.9 s (system time 0.1 -> 0.5 s), still twice the 15 photos/s it must reach.
-/// (The one `unsafe` in the crate: glibc reads its environment variable for this before
-/// `main`, too early to set it from here.)
+/// What the process sets before any thread starts; the crate's one `unsafe`.
+///
+/// - glibc gives each thread that allocates its own heap arena, and memory freed there goes
+///   back to the system only from the top of the heap; with every photo's maps, crops and
+///   thumbnails freed in whichever worker made them, the arenas held a 300-photo `laser
+///   --report` at 305-340 MB peak over three runs, against 298-301 MB with two arenas
+///   (issue 17's limit is 330). The cost is the workers' contention on the shared arena:
+///   `laser` on 16 photos takes the same time, `measure --masks` on 100 photos 3.1-3.3 s
+///   instead of 2.9 s (system time 0.1 -> 0.5 s), still twice the 15 photos/s it must reach.
+///   (glibc reads its environment variable for this before `main`, too early to set it from
+///   here.)
+/// - A reader that closes the pipe early (`fslcal check --json ... | head`) ends the
+///   process quietly, as it ends any Unix filter: Rust ignores SIGPIPE, and every `println!`
+///   after the reader left panicked with a backtrace instead.
 #[allow(unsafe_code)]
-fn limit_allocator_arenas() {
+fn set_up_process() {
     #[cfg(all(target_os = "linux", target_env = "gnu"))]
     // SAFETY: mallopt only sets an allocator parameter; it is called before any thread starts.
     unsafe {
         libc::mallopt(libc::M_ARENA_MAX, 2);
+    }
+    #[cfg(all(target_os = "linux", target_env = "gnu"))]
+    // SAFETY: restores the default disposition of one signal before any thread starts; no
+    // handler of ours runs.
+    unsafe {
+        libc::signal(libc::SIGPIPE, libc::SIG_DFL);
     }
 }
 
