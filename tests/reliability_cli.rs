@@ -348,8 +348,8 @@ fn inspect_of_a_tampered_file_shows_it_and_exits_1() {
     assert!(stderr(&o).contains("cal.fslcal: tampered"), "{}", stderr(&o));
 }
 
-/// `fslcal inspect --json FILE | head -0`: the reader has left before fslcal writes, and
-/// fslcal ends as a Unix filter does (SIGPIPE), not with a panic and a backtrace.
+/// `fslcal inspect --json FILE` into a pipe whose reader has already left: fslcal
+/// ends as a Unix filter does (SIGPIPE), not with a panic and a backtrace.
 #[cfg(all(target_os = "linux", target_env = "gnu"))]
 #[test]
 #[allow(unsafe_code)]

@@ -86,7 +86,7 @@ pub fn run() -> anyhow::Result<ExitCode> {
     run_parsed(Cli::parse())
 }
 
-/// What the process sets before any thread starts; the crate's one `unsafe`.
+/// What the process sets before any thread starts; the crate's one `unsafe` block.
 ///
 /// - glibc gives each thread that allocates its own heap arena, and memory freed there goes
 ///   back to the system only from the top of the heap; with every photo's maps, crops and
@@ -103,14 +103,10 @@ pub fn run() -> anyhow::Result<ExitCode> {
 #[allow(unsafe_code)]
 fn set_up_process() {
     #[cfg(all(target_os = "linux", target_env = "gnu"))]
-    // SAFETY: mallopt only sets an allocator parameter; it is called before any thread starts.
+    // SAFETY: both are called before any thread starts; mallopt only sets an allocator
+    // parameter, and signal restores one signal's default disposition (no handler of ours).
     unsafe {
         libc::mallopt(libc::M_ARENA_MAX, 2);
-    }
-    #[cfg(all(target_os = "linux", target_env = "gnu"))]
-    // SAFETY: restores the default disposition of one signal before any thread starts; no
-    // handler of ours runs.
-    unsafe {
         libc::signal(libc::SIGPIPE, libc::SIG_DFL);
     }
 }
