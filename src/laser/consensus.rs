@@ -286,17 +286,27 @@ mod tests {
         }
     }
 
+    /// The rig's laser in these tests: 11 cm from the camera, turned a little across.
+    fn rig_laser() -> LaserLine {
+        LaserLine::from_point_direction(Vec3::new(0.1, -0.05, 0.0), Vec3::new(-0.02, 0.01, 1.0)).unwrap()
+    }
+
+    /// A board facing the camera at `z_m`.
+    fn board_at(z_m: f64) -> Plane {
+        Plane::through(Vec3::new(0.0, 0.0, z_m), Vec3::new(0.0, 0.0, -1.0))
+    }
+
     /// Eight fronto-parallel boards from 0.6 to 4 m; in every photo a brighter impostor
     /// somewhere on the board, in one photo two blobs both on the line's image.
     #[test]
     fn the_dots_on_one_line_win_over_stronger_impostors() {
         let cam = camera();
-        let truth = LaserLine::from_point_direction(Vec3::new(0.1, -0.05, 0.0), Vec3::new(-0.02, 0.01, 1.0)).unwrap();
+        let truth = rig_laser();
         let mut cands: Vec<Vec<DotCandidate>> = Vec::new();
         let mut planes = Vec::new();
         for i in 0..8 {
             let z = 0.6 + 0.5 * i as f64;
-            let plane = Plane::through(Vec3::new(0.0, 0.0, z), Vec3::new(0.0, 0.0, -1.0));
+            let plane = board_at(z);
             let dot = cam.project(&truth.hit(&plane).unwrap()).unwrap();
             let mut c = vec![candidate(Vec2::new(300.0 + 90.0 * i as f64, 1200.0 - 70.0 * i as f64), 200.0)];
             c.push(candidate(dot + Vec2::new(0.3, -0.2), 15.0));
@@ -330,10 +340,8 @@ mod tests {
     #[test]
     fn a_far_dot_behind_six_stronger_blobs_is_still_looked_at() {
         let cam = camera();
-        let truth = LaserLine::from_point_direction(Vec3::new(0.1, -0.05, 0.0), Vec3::new(-0.02, 0.01, 1.0)).unwrap();
-        let planes: Vec<Plane> = (0..6)
-            .map(|i| Plane::through(Vec3::new(0.0, 0.0, 0.6 + 0.6 * i as f64), Vec3::new(0.0, 0.0, -1.0)))
-            .collect();
+        let truth = rig_laser();
+        let planes: Vec<Plane> = (0..6).map(|i| board_at(0.6 + 0.6 * i as f64)).collect();
         let cands: Vec<Vec<DotCandidate>> = planes
             .iter()
             .enumerate()
@@ -359,9 +367,9 @@ mod tests {
     #[test]
     fn strong_blobs_off_the_line_count_only_when_they_share_a_line() {
         let cam = camera();
-        let before = LaserLine::from_point_direction(Vec3::new(0.1, -0.05, 0.0), Vec3::new(-0.02, 0.01, 1.0)).unwrap();
+        let before = rig_laser();
         let after = LaserLine::from_point_direction(Vec3::new(0.1, -0.05, 0.0), Vec3::new(0.15, 0.1, 1.0)).unwrap();
-        let plane = |i: usize| Plane::through(Vec3::new(0.0, 0.0, 0.6 + 0.45 * i as f64), Vec3::new(0.0, 0.0, -1.0));
+        let plane = |i: usize| board_at(0.6 + 0.45 * i as f64);
         let run = |moved: bool| {
             let planes: Vec<Plane> = (0..9).map(plane).collect();
             let cands: Vec<Vec<DotCandidate>> = planes
@@ -397,12 +405,10 @@ mod tests {
     #[test]
     fn a_chance_line_the_rig_cannot_hold_loses_to_the_dots() {
         let cam = camera();
-        let laser = LaserLine::from_point_direction(Vec3::new(0.1, -0.05, 0.0), Vec3::new(-0.02, 0.01, 1.0)).unwrap();
+        let laser = rig_laser();
         let chance = LaserLine::from_point_direction(Vec3::new(-0.1, 0.5, 0.0), Vec3::new(0.06, -0.1, 1.0)).unwrap();
         assert!(chance.baseline_m() > 0.5);
-        let planes: Vec<Plane> = (0..6)
-            .map(|i| Plane::through(Vec3::new(0.0, 0.0, 0.6 + 0.6 * i as f64), Vec3::new(0.0, 0.0, -1.0)))
-            .collect();
+        let planes: Vec<Plane> = (0..6).map(|i| board_at(0.6 + 0.6 * i as f64)).collect();
         let cands: Vec<Vec<DotCandidate>> = planes
             .iter()
             .enumerate()
@@ -425,8 +431,7 @@ mod tests {
     #[test]
     fn too_few_photos_on_any_line_is_no_consensus() {
         let cam = camera();
-        let planes: Vec<Plane> =
-            (0..3).map(|i| Plane::through(Vec3::new(0.0, 0.0, 1.0 + i as f64), Vec3::new(0.0, 0.0, -1.0))).collect();
+        let planes: Vec<Plane> = (0..3).map(|i| board_at(1.0 + i as f64)).collect();
         let cands = [
             vec![candidate(Vec2::new(100.0, 100.0), 20.0)],
             vec![candidate(Vec2::new(1900.0, 200.0), 20.0)],
