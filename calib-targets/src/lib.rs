@@ -26,5 +26,6 @@ pub mod variety;
 pub use output::{
     camera_yaml, write_camera_yaml, write_fish, write_json, write_photo, write_png, write_scene, JPEG_QUALITY,
 };
+pub use random::SplitMix;
 pub use slate::{KnownLength, Slate, SlateError};
 pub use target::{Checkerboard, TargetParseError, MARGIN_SQUARES};
