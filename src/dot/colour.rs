@@ -249,16 +249,15 @@ impl LaserColourModel {
         let weights: Vec<f64> = dirs.iter().map(|(_, s)| weight(*s)).collect();
         let angles_to =
             |mean: [f64; 3]| -> Vec<f64> { dirs.iter().map(|(d, _)| dot(*d, mean).clamp(-1.0, 1.0).acos()).collect() };
+        // Each dot's weight, down-weighted by its angle from the mean over the dots' scale.
+        let robust_weights = |angles: &[f64]| -> Vec<f64> {
+            let s = (ROBUST_SCALE * weighted_median(angles, &weights)).max(MIN_SPREAD_RAD);
+            weights.iter().zip(angles).map(|(w, a)| w / (1.0 + (a / s).powi(2))).collect()
+        };
         let mut mean_dir = unit(dirs.iter().zip(&weights).fold([0.0; 3], |acc, ((d, _), w)| add(acc, scale(*d, *w))));
         for _ in 0..ROBUST_PASSES {
-            let angles = angles_to(mean_dir);
-            let s = (ROBUST_SCALE * weighted_median(&angles, &weights)).max(MIN_SPREAD_RAD);
-            mean_dir = unit(
-                dirs.iter()
-                    .zip(&weights)
-                    .zip(&angles)
-                    .fold([0.0; 3], |acc, (((d, _), w), a)| add(acc, scale(*d, w / (1.0 + (a / s).powi(2))))),
-            );
+            let robust = robust_weights(&angles_to(mean_dir));
+            mean_dir = unit(dirs.iter().zip(&robust).fold([0.0; 3], |acc, ((d, _), w)| add(acc, scale(*d, *w))));
         }
         // The stored direction keeps the dots' mean white part, as the file describes the
         // excess itself, not its chroma alone.
@@ -274,8 +273,7 @@ impl LaserColourModel {
         }
         // The mean's own uncertainty, from the weights the robust passes give the dots at
         // the final mean: a tolerance of the dots' scatter alone is as if the mean were exact.
-        let s = (ROBUST_SCALE * weighted_median(&angles, &weights)).max(MIN_SPREAD_RAD);
-        let information: f64 = angles.iter().zip(&weights).map(|(a, w)| w / (1.0 + (a / s).powi(2))).sum();
+        let information: f64 = robust_weights(&angles).iter().sum();
         let mean_sigma = information.max(1e-12).recip().sqrt();
         let count = dirs.len().min(u16::MAX as usize) as u16;
         Some(LaserColourModel::new(
