@@ -452,8 +452,9 @@ impl RoiMaps {
         let weights = params.colour.matched_weights(scene_samples(img, roi), SCENE_NOISE_LEVELS);
         let lit = lit_channels(&params.colour);
         let see = params.see_through_clipped_surfaces.then_some(params.colour.rgb);
-        let core_px = (largest_core_px(params.max_area_px, squares), params.max_area_px);
-        let (g, saturated) = laser_contrast(img, roi, weights, lit, see, core_px);
+        let limits =
+            CoreLimits { any_px: largest_core_px(params.max_area_px, squares), round_white_px: params.max_area_px };
+        let (g, saturated) = laser_contrast(img, roi, weights, lit, see, limits);
         let mut excess = minus_local_background(&g, roi, params.background_radius_px);
         board_background(&g, roi, squares, &mut excess);
         let sigma = robust_noise(&excess, &square_edges(roi, squares));
@@ -505,6 +506,16 @@ fn largest_core_px(max_area_px: usize, squares: &[[Vec2; 4]]) -> usize {
     max_area_px.min((CORE_SQUARE_SHARE * median) as usize)
 }
 
+/// Largest connected clipped regions taken for a dot's core, pixels ([`clipped_cores`]).
+#[derive(Clone, Copy, Debug)]
+struct CoreLimits {
+    /// Any clipped region ([`largest_core_px`]).
+    any_px: usize,
+    /// A round white region ([`round`]): a very near dot's white core may cover more of a
+    /// board's square than any other clipped region.
+    round_white_px: usize,
+}
+
 /// The share of a board's square a dot's clipped core may cover: a dot at 0.55 m clips
 /// about 270 px, its square there 52 000 px.
 const CORE_SQUARE_SHARE: f64 = 0.25;
@@ -535,7 +546,7 @@ fn laser_contrast(
     weights: [f64; 3],
     lit: [bool; 3],
     see: Option<[f64; 3]>,
-    max_area_px: (usize, usize),
+    limits: CoreLimits,
 ) -> (Vec<f32>, Vec<bool>) {
     let (w, h) = (roi.w, roi.h);
     let [wr, wg, wb] = weights.map(|v| v as f32);
@@ -549,10 +560,10 @@ fn laser_contrast(
         }
     }
     let Some(laser_rgb) = see else {
-        return (g, clipped_cores(clips, roi, max_area_px));
+        return (g, clipped_cores(clips, roi, limits));
     };
     let surface = clipped_surfaces(&clips, roi);
-    let mut cores = clipped_cores(clips, roi, max_area_px);
+    let mut cores = clipped_cores(clips, roi, limits);
     for (c, &s) in cores.iter_mut().zip(&surface) {
         *c &= !s;
     }
@@ -625,15 +636,15 @@ fn clip_bits(lit: [bool; 3], (r, g, b): (i32, i32, i32)) -> u8 {
 
 /// The pixels whose clipping is a core's: each clipping condition of `clips`
 /// ([`clip_bits`]) counts only over a connected region no larger than a dot
-/// (`max_area_px`). A surface clipped over a larger region is the background's: a white
+/// (`limits`). A surface clipped over a larger region is the background's: a white
 /// square near the camera's lamp in clear green water clips green and blue over 20 000 px
 /// and more, and every pixel of it counted as a dot's core merged the squares and the dot
 /// on them into one blob too large for a dot (tuning calibration seed 9, dots at 0.55-1.5
-/// m). There the dot shows in the channels that do not clip. `max_area_px` is that limit
+/// m). There the dot shows in the channels that do not clip. `limits` holds that limit
 /// and a larger one for a round white region: a dot of 6 100 levels at 0.57 m clipped white
 /// over 9 500 px, 0.3 of its tilted board's median square (held-out calibration
 /// 1000075/00), while a square clipped all over is no disc ([`round`]).
-fn clipped_cores(mut clips: Vec<u8>, roi: Roi, max_area_px: (usize, usize)) -> Vec<bool> {
+fn clipped_cores(mut clips: Vec<u8>, roi: Roi, limits: CoreLimits) -> Vec<bool> {
     let (w, h) = (roi.w, roi.h);
     let mut stack = Vec::new();
     let mut region = Vec::new();
@@ -657,8 +668,8 @@ fn clipped_cores(mut clips: Vec<u8>, roi: Roi, max_area_px: (usize, usize)) -> V
                     }
                 }
             }
-            let (most, round_white) = max_area_px;
-            if region.len() > most && !(bit == 3 && region.len() <= round_white && round(&region, w)) {
+            let round_core = bit == 3 && region.len() <= limits.round_white_px && round(&region, w);
+            if region.len() > limits.any_px && !round_core {
                 for &i in &region {
                     clips[i as usize] &= !on;
                 }
@@ -985,15 +996,9 @@ fn blob_candidate(
             })
             .flatten()
     };
-    let white_px = pixels
-        .iter()
-        .filter(|&&i| {
-            let (r, g, b) = img.rgb(maps.roi.x0 + i % maps.roi.w, maps.roi.y0 + i / maps.roi.w);
-            r.min(g).min(b) >= CLIPPED
-        })
-        .count();
-    let lit_clipped_px = if clipped_core && white_px > 0 {
-        lit_clipped_around(img, maps, pixels, lit_channels(&params.colour), LIT_GLOW_AREA_FACTOR * params.max_area_px)
+    let white: Vec<usize> = pixels.iter().copied().filter(|&i| white_at(img, maps.roi, i)).collect();
+    let lit_clipped_px = if clipped_core && !white.is_empty() {
+        lit_clipped_around(img, maps, &white, lit_channels(&params.colour), LIT_GLOW_AREA_FACTOR * params.max_area_px)
     } else {
         0
     };
@@ -1005,7 +1010,7 @@ fn blob_candidate(
         core_radius_px,
         saturated_core: clipped_core,
         saturated_px: m.saturated_pixels,
-        white_px,
+        white_px: white.len(),
         lit_clipped_px,
         colour_score: score.sigmas,
         colour_angle_rad: score.angle_rad,
@@ -1024,18 +1029,18 @@ fn blob_candidate(
 /// Most pixels a dot's lit glow clips over, in dots' largest areas ([`lit_clipped_around`]).
 const LIT_GLOW_AREA_FACTOR: usize = 2;
 
-/// The pixels 8-connected to the blob's white ones (all three channels clipped) where a
-/// channel the laser lights (`lit`) clips, white included: a near dot's glow clips its own
+/// The pixels 8-connected to a blob's `white` ones ([`white_at`]) where a channel the laser
+/// lights (`lit`) clips, white included: a near dot's glow clips its own
 /// channel well beyond its white core. Read from the photo, not the maps, whose clipped
 /// regions stop at a dot's size. 0 when they reach more than `most` (a surface whose lit
 /// channel clips all over).
-fn lit_clipped_around(img: &ColourView, maps: &RoiMaps, pixels: &[usize], lit: [bool; 3], most: usize) -> usize {
+fn lit_clipped_around(img: &ColourView, maps: &RoiMaps, white: &[usize], lit: [bool; 3], most: usize) -> usize {
     let (w, h, roi) = (maps.roi.w, maps.roi.h, maps.roi);
     let clip = |i: usize| {
         let (r, g, b) = img.rgb(roi.x0 + i % w, roi.y0 + i / w);
         [r, g, b].map(|c| c >= CLIPPED)
     };
-    let mut queue: Vec<usize> = pixels.iter().copied().filter(|&i| clip(i).iter().all(|&c| c)).collect();
+    let mut queue = white.to_vec();
     let mut seen: std::collections::HashSet<usize> = queue.iter().copied().collect();
     let mut k = 0;
     while k < queue.len() {
@@ -1054,6 +1059,12 @@ fn lit_clipped_around(img: &ColourView, maps: &RoiMaps, pixels: &[usize], lit: [
     queue.len()
 }
 
+/// Whether ROI pixel `i` is white: all three channels clipped.
+fn white_at(img: &ColourView, roi: Roi, i: usize) -> bool {
+    let (r, g, b) = img.rgb(roi.x0 + i % roi.w, roi.y0 + i / roi.w);
+    r.min(g).min(b) >= CLIPPED
+}
+
 /// Whether the blob of `pixels` is dim at `at` (ROI pixels) against its core ([`hollow`]).
 /// A clipped pixel counts at the peak, and so does a white one: on a surface clipped all
 /// over, the clipped map leaves out a dot's core (white) and its contrast map reads it by
@@ -1061,8 +1072,7 @@ fn lit_clipped_around(img: &ColourView, maps: &RoiMaps, pixels: &[usize], lit: [
 fn hollow_blob(img: &ColourView, maps: &RoiMaps, pixels: &[usize], at: Vec2, peak: f64) -> bool {
     let roi = maps.roi;
     let level = |i: usize| {
-        let (r, g, b) = img.rgb(roi.x0 + i % roi.w, roi.y0 + i / roi.w);
-        if maps.saturated[i] || r.min(g).min(b) >= CLIPPED {
+        if maps.saturated[i] || white_at(img, roi, i) {
             peak
         } else {
             maps.excess[i] as f64
