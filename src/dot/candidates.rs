@@ -18,6 +18,9 @@ use fslcal_core::Vec2;
 /// An 8-bit level at or above which a channel is taken as clipped (JPEG rounding keeps
 /// clipped pixels a few levels below 255).
 pub(super) const CLIPPED: i32 = 250;
+/// Least level of all three channels that joins white pixels into one white region (JPEG
+/// leaves a clipped core speckled).
+pub(super) const NEAR_WHITE: i32 = 220;
 
 /// The channels the laser lights: at least half as strong in its colour as its strongest.
 /// Only these clipping makes a pixel a dot's core. A channel the laser barely adds to may
@@ -624,6 +627,25 @@ fn see_through_clipped_surfaces(
         }
     }
 }
+
+/// Whether a white region whose rim (the pixels next to it, not white) reads `rim` is a
+/// glint's: fewer than [`DOT_RIM_SHARE`] of them clip as a dot's glow does, green (the
+/// beam's green clips well beyond where its weaker channels do) or red and blue both (a
+/// dot on a surface clipped in those). A glint's channels fall off together.
+pub(super) fn glint_rim(rim: impl Iterator<Item = (i32, i32, i32)>) -> bool {
+    let (mut n, mut like_dot) = (0usize, 0usize);
+    for (r, g, b) in rim {
+        n += 1;
+        like_dot += (g >= CLIPPED || r.min(b) >= CLIPPED) as usize;
+    }
+    (like_dot as f64) < DOT_RIM_SHARE * n as f64
+}
+
+/// Least share of a white region's rim that clips as a dot's glow does, for the region to
+/// be taken for a dot's core ([`glint_rim`]). A dot's rim clips green all round (31-541
+/// of 34-541 rim pixels on tuning calibration seed 31's near dots), the glint of tuning
+/// target-less 16/00 on 9 of 34.
+const DOT_RIM_SHARE: f64 = 0.5;
 
 /// Where a core may clip: bit `k` where lit channel `k` clips (a clipped lit channel shows
 /// no contrast however bright the dot is), bit 3 where all three clip.
@@ -1630,8 +1652,11 @@ mod tests {
 
     /// A dot 13 px from a glint: the glint's core clips white and its halo, the light's own
     /// near-white colour with a little of the water's green, bridges the two into one blob
-    /// whose candidate sits on the glint. Along a line through the dot, the dot is found as a
-    /// spot of its own beside the glint; a search of the whole image (no line) does not split.
+    /// whose candidate sits on the glint. The water is green enough that green clips on the
+    /// glint's rim, so its white passes for a dot's core (a glint with no green rim is no
+    /// core: `a_glint_on_a_dots_halo_is_not_taken_for_its_white_core`). Along a line through
+    /// the dot, the dot is found as a spot of its own beside the glint; a search of the whole
+    /// image (no line) does not split.
     #[test]
     fn a_dot_beside_a_glint_is_found_apart_from_it() {
         let (w, h) = (200usize, 120usize);
@@ -1644,7 +1669,7 @@ mod tests {
             let noise = grain(x, y);
             [
                 30.0 + core + halo + 0.25 * dot + noise,
-                90.0 + core + 1.2 * halo + dot + noise,
+                185.0 + core + 1.2 * halo + dot + noise,
                 70.0 + core + halo + 0.4 * dot + noise,
             ]
         });
@@ -1660,6 +1685,29 @@ mod tests {
         let whole = SearchRegion { polygon, band: None, squares: Vec::new() };
         let c = find_dot_candidates(&view(&data, w, h), &whole, &params, 8);
         assert!(c.iter().all(|c| (c.pixel - truth).norm() >= 1.0 && !c.beside_clipped), "{c:?}");
+    }
+
+    /// A glint 3 px across on the halo of a dot of 180 levels, 12 px from it, in bright blue
+    /// water: the glint is the only white in reach, and its channels fall off together, so
+    /// its rim clips no green (tuning target-less 16/00, where the dot was centred on the
+    /// glint and refused as off the line). The dot is centred on itself.
+    #[test]
+    fn a_glint_on_a_dots_halo_is_not_taken_for_its_white_core() {
+        let (w, h) = (160usize, 120usize);
+        let (truth, glint) = (Vec2::new(80.4, 70.3), Vec2::new(80.9, 58.2));
+        let data = paint(w, h, |x, y| {
+            let dot = spot(x, y, truth, 180.0, 3.5);
+            let gl = spot(x, y, glint, 400.0, 1.6);
+            let noise = grain(x, y);
+            [35.0 + 0.08 * dot + gl + noise, 110.0 + dot + gl + noise, 212.0 + 0.5 * dot + gl + noise]
+        });
+        let line = vec![Vec2::new(80.4, 0.0), Vec2::new(80.4, 119.0)];
+        let polygon =
+            vec![Vec2::new(50.0, 0.0), Vec2::new(110.0, 0.0), Vec2::new(110.0, 119.0), Vec2::new(50.0, 119.0)];
+        let band = SearchRegion { polygon, band: Some((line, 4.0)), squares: Vec::new() };
+        let c = find_dot_candidates(&view(&data, w, h), &band, &DotDetectorParams::default().sensitive(), 4);
+        let dot = c.iter().find(|c| (c.pixel - truth).norm() < 0.6);
+        assert!(dot.is_some(), "no candidate within 0.6 px of the dot: {c:?}");
     }
 
     /// A board in green water, where the squares' contrast lies along a green laser's

@@ -1,7 +1,7 @@
 //! Centring a dot blob to sub-pixel: its weighted centroid on the detector's maps, then a
 //! re-centring on the photo against a background model that a checkerboard cannot bias.
 
-use super::candidates::{neighbours8, BlobBox, ColourView, RoiMaps, CLIPPED};
+use super::candidates::{glint_rim, neighbours8, BlobBox, ColourView, RoiMaps, CLIPPED, NEAR_WHITE};
 use fslcal_core::Vec2;
 
 /// Intensity-weighted centroid of blob `id` in ROI pixels (its clipped core weighted at
@@ -60,9 +60,11 @@ pub(super) fn refine_centre(img: &ColourView, rough: Vec2, blob_radius_px: f64, 
             // thresholded centroid, whose few surviving pixels are at the noise's mercy.
             matched_filter_peak(img, c, r_in, blob_radius_px, &|r, g, b| background.residual(r, g, b))?
         } else {
-            disc.nearest_white
-                .and_then(|seed| clipped_core_centre(img, &window, c, r_in, seed))
-                .or_else(|| disc.centroid_with_core(background.floor))?
+            match disc.nearest_white.map(|seed| white_core(img, &window, c, r_in, seed)) {
+                Some(WhiteCore::Dot(at)) => at,
+                Some(WhiteCore::Glint(glint)) => disc.without(&glint).centroid_with_core(background.floor)?,
+                Some(WhiteCore::Unsure) | None => disc.centroid_with_core(background.floor)?,
+            }
         };
         let moved = (next - c).norm();
         c = next;
@@ -195,11 +197,26 @@ impl Background {
     }
 }
 
-/// Centroid of the white core (all channels clipped) that holds `seed`, the white pixel
-/// nearest `c` ([`DiscSignal::nearest_white`]): its white pixels joined through near-white
-/// ones (JPEG leaves a clipped core speckled), when it has at least `MIN_CORE_PX` of them
-/// and lies wholly within `EDGE_SHARE` of the disc of `r_in`.
-fn clipped_core_centre(img: &ColourView, window: &Window, c: Vec2, r_in: f64, (sx0, sy0): (i64, i64)) -> Option<Vec2> {
+/// What the white region nearest a dot's centre is ([`white_core`]).
+enum WhiteCore {
+    /// The dot's own core, centred here.
+    Dot(Vec2),
+    /// A glint: white with no clipped green around it. Its pixels (image x, y), near-white
+    /// ones and its rim included.
+    Glint(std::collections::HashSet<(i64, i64)>),
+    /// Neither can be told: too small, not round, or reaching the disc's edge.
+    Unsure,
+}
+
+/// The white region (all channels clipped) that holds `seed`, the white pixel nearest `c`
+/// ([`DiscSignal::nearest_white`]): its white pixels joined through near-white ones (JPEG
+/// leaves a clipped core speckled). It is the dot's core unless its rim is a glint's
+/// ([`glint_rim`]), and then centred on when it has at least
+/// `MIN_CORE_PX` white pixels and lies wholly within `EDGE_SHARE` of the disc of `r_in`.
+/// A glint's channels fall off together: a glint 3 px across on a dot's halo, 12 px from
+/// the dot, was centred on as the dot's core, off the laser's line (tuning target-less
+/// 16/00).
+fn white_core(img: &ColourView, window: &Window, c: Vec2, r_in: f64, (sx0, sy0): (i64, i64)) -> WhiteCore {
     let w = (window.x1 - window.x0 + 1) as usize;
     let h = (window.y1 - window.y0 + 1) as usize;
     let level = |i: usize| {
@@ -211,12 +228,13 @@ fn clipped_core_centre(img: &ColourView, window: &Window, c: Vec2, r_in: f64, (s
     let mut seen = vec![false; w * h];
     seen[seed] = true;
     let mut stack = vec![seed];
+    let (mut region, mut rim, mut reaches_edge, mut open) = (Vec::new(), Vec::new(), false, false);
     let (mut n, mut sx, mut sy, mut sxx, mut syy, mut sxy) = (0usize, 0f64, 0f64, 0f64, 0f64, 0f64);
     while let Some(i) = stack.pop() {
-        if dist(i) > EDGE_SHARE * r_in {
-            return None;
-        }
+        reaches_edge |= dist(i) > EDGE_SHARE * r_in;
+        region.push(i);
         let (x, y) = (i % w, i / w);
+        open |= x == 0 || y == 0 || x + 1 == w || y + 1 == h;
         if level(i) >= CLIPPED {
             let (x, y) = (x as f64, y as f64);
             n += 1;
@@ -225,14 +243,24 @@ fn clipped_core_centre(img: &ColourView, window: &Window, c: Vec2, r_in: f64, (s
         }
         for (nx, ny) in neighbours8(x, y, w, h) {
             let j = ny * w + nx;
-            if !seen[j] && level(j) >= NEAR_WHITE {
+            if !seen[j] {
                 seen[j] = true;
-                stack.push(j);
+                if level(j) >= NEAR_WHITE {
+                    stack.push(j);
+                } else {
+                    rim.push(j);
+                }
             }
         }
     }
-    if n < MIN_CORE_PX {
-        return None;
+    let pixel = |i: usize| (window.x0 as usize + i % w, window.y0 as usize + i / w);
+    if !open && glint_rim(rim.iter().map(|&i| img.rgb(pixel(i).0, pixel(i).1))) {
+        return WhiteCore::Glint(
+            region.into_iter().chain(rim).map(|i| (pixel(i).0 as i64, pixel(i).1 as i64)).collect(),
+        );
+    }
+    if reaches_edge || n < MIN_CORE_PX {
+        return WhiteCore::Unsure;
     }
     let k = n as f64;
     let (mx, my) = (sx / k, sy / k);
@@ -242,15 +270,17 @@ fn clipped_core_centre(img: &ColourView, window: &Window, c: Vec2, r_in: f64, (s
     let (half_trace, det) = (0.5 * (cxx + cyy), cxx * cyy - cxy * cxy);
     let spread = (half_trace * half_trace - det).max(0.0).sqrt();
     let (major, minor) = (half_trace + spread, (half_trace - spread).max(1e-9));
-    (major <= MAX_CORE_ELONGATION * minor).then(|| Vec2::new(window.x0 as f64 + mx, window.y0 as f64 + my))
+    if major <= MAX_CORE_ELONGATION * minor {
+        WhiteCore::Dot(Vec2::new(window.x0 as f64 + mx, window.y0 as f64 + my))
+    } else {
+        WhiteCore::Unsure
+    }
 }
 
 /// Largest ratio of a white core's second moments (major over minor axis, squared) that
 /// is taken for one round core.
 const MAX_CORE_ELONGATION: f64 = 2.0;
 
-/// Least level of all three channels that joins white pixels into one core.
-const NEAR_WHITE: i32 = 220;
 /// Share of the disc a white core must lie within: one that reaches its edge is no dot's
 /// core alone (a glint beside it, a clipped surface).
 const EDGE_SHARE: f64 = 0.8;
@@ -297,6 +327,12 @@ impl DiscSignal {
     }
 
     /// The centroid with the clipped core weighted at least the brightest unclipped level.
+    /// The signal without a glint's pixels among the clipped ones.
+    fn without(mut self, glint: &std::collections::HashSet<(i64, i64)>) -> DiscSignal {
+        self.saturated.retain(|&(x, y)| !glint.contains(&(x as i64, y as i64)));
+        self
+    }
+
     fn centroid_with_core(self, floor: f64) -> Option<Vec2> {
         let core_w = (self.peak - floor).max(1.0);
         let mut acc = self.acc;
