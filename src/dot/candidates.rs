@@ -18,9 +18,6 @@ use fslcal_core::Vec2;
 /// An 8-bit level at or above which a channel is taken as clipped (JPEG rounding keeps
 /// clipped pixels a few levels below 255).
 pub(super) const CLIPPED: i32 = 250;
-/// Least level of all three channels that joins white pixels into one white region (JPEG
-/// leaves a clipped core speckled).
-pub(super) const NEAR_WHITE: i32 = 220;
 
 /// The channels the laser lights: at least half as strong in its colour as its strongest.
 /// Only these clipping makes a pixel a dot's core. A channel the laser barely adds to may
@@ -627,25 +624,6 @@ fn see_through_clipped_surfaces(
         }
     }
 }
-
-/// Whether a white region whose rim (the pixels next to it, not white) reads `rim` is a
-/// glint's: fewer than [`DOT_RIM_SHARE`] of them clip as a dot's glow does, green (the
-/// beam's green clips well beyond where its weaker channels do) or red and blue both (a
-/// dot on a surface clipped in those). A glint's channels fall off together.
-pub(super) fn glint_rim(rim: impl Iterator<Item = (i32, i32, i32)>) -> bool {
-    let (mut n, mut like_dot) = (0usize, 0usize);
-    for (r, g, b) in rim {
-        n += 1;
-        like_dot += (g >= CLIPPED || r.min(b) >= CLIPPED) as usize;
-    }
-    (like_dot as f64) < DOT_RIM_SHARE * n as f64
-}
-
-/// Least share of a white region's rim that clips as a dot's glow does, for the region to
-/// be taken for a dot's core ([`glint_rim`]). A dot's rim clips green all round (31-541
-/// of 34-541 rim pixels on tuning calibration seed 31's near dots), the glint of tuning
-/// target-less 16/00 on 9 of 34.
-const DOT_RIM_SHARE: f64 = 0.5;
 
 /// Where a core may clip: bit `k` where lit channel `k` clips (a clipped lit channel shows
 /// no contrast however bright the dot is), bit 3 where all three clip.

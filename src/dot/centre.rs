@@ -1,7 +1,7 @@
 //! Centring a dot blob to sub-pixel: its weighted centroid on the detector's maps, then a
 //! re-centring on the photo against a background model that a checkerboard cannot bias.
 
-use super::candidates::{glint_rim, neighbours8, BlobBox, ColourView, RoiMaps, CLIPPED, NEAR_WHITE};
+use super::candidates::{neighbours8, BlobBox, ColourView, RoiMaps, CLIPPED};
 use fslcal_core::Vec2;
 
 /// Intensity-weighted centroid of blob `id` in ROI pixels (its clipped core weighted at
@@ -211,8 +211,8 @@ enum WhiteCore {
 /// The white region (all channels clipped) that holds `seed`, the white pixel nearest `c`
 /// ([`DiscSignal::nearest_white`]): its white pixels joined through near-white ones (JPEG
 /// leaves a clipped core speckled). It is the dot's core unless its rim is a glint's
-/// ([`glint_rim`]), and then centred on when it has at least
-/// `MIN_CORE_PX` white pixels and lies wholly within `EDGE_SHARE` of the disc of `r_in`.
+/// ([`glint_rim`]), and then centred on when it has at least `MIN_CORE_PX` white pixels
+/// and lies wholly within `EDGE_SHARE` of the disc of `r_in`.
 /// A glint's channels fall off together: a glint 3 px across on a dot's halo, 12 px from
 /// the dot, was centred on as the dot's core, off the laser's line (tuning target-less
 /// 16/00).
@@ -277,6 +277,29 @@ fn white_core(img: &ColourView, window: &Window, c: Vec2, r_in: f64, (sx0, sy0):
     }
 }
 
+/// Whether a white region whose rim (the pixels next to it, not white) reads `rim` is a
+/// glint's: fewer than [`DOT_RIM_SHARE`] of them clip as a dot's glow does, green (the
+/// beam's green clips well beyond where its weaker channels do) or red and blue both (a
+/// dot on a surface clipped in those). A glint's channels fall off together.
+fn glint_rim(rim: impl Iterator<Item = (i32, i32, i32)>) -> bool {
+    let (mut n, mut like_dot) = (0usize, 0usize);
+    for (r, g, b) in rim {
+        n += 1;
+        like_dot += (g >= CLIPPED || r.min(b) >= CLIPPED) as usize;
+    }
+    (like_dot as f64) < DOT_RIM_SHARE * n as f64
+}
+
+/// Least share of a white region's rim that clips as a dot's glow does, for the region to
+/// be taken for a dot's core ([`glint_rim`]). A dot's rim clips green all round (31-541
+/// of 34-541 rim pixels on tuning calibration seed 31's near dots), the glint of tuning
+/// target-less 16/00 on 9 of 34.
+const DOT_RIM_SHARE: f64 = 0.5;
+
+/// Least level of all three channels that joins white pixels into one white region (JPEG
+/// leaves a clipped core speckled).
+const NEAR_WHITE: i32 = 220;
+
 /// Largest ratio of a white core's second moments (major over minor axis, squared) that
 /// is taken for one round core.
 const MAX_CORE_ELONGATION: f64 = 2.0;
@@ -326,13 +349,13 @@ impl DiscSignal {
         disc
     }
 
-    /// The centroid with the clipped core weighted at least the brightest unclipped level.
     /// The signal without a glint's pixels among the clipped ones.
     fn without(mut self, glint: &std::collections::HashSet<(i64, i64)>) -> DiscSignal {
         self.saturated.retain(|&(x, y)| !glint.contains(&(x as i64, y as i64)));
         self
     }
 
+    /// The centroid with the clipped core weighted at least the brightest unclipped level.
     fn centroid_with_core(self, floor: f64) -> Option<Vec2> {
         let core_w = (self.peak - floor).max(1.0);
         let mut acc = self.acc;
