@@ -228,13 +228,18 @@ fn white_core(img: &ColourView, window: &Window, c: Vec2, r_in: f64, (sx0, sy0):
     let mut seen = vec![false; w * h];
     seen[seed] = true;
     let mut stack = vec![seed];
-    let (mut region, mut rim, mut reaches_edge, mut open) = (Vec::new(), Vec::new(), false, false);
+    let (mut region, mut rim, mut reaches_edge) = (Vec::new(), Vec::new(), false);
     let (mut n, mut sx, mut sy, mut sxx, mut syy, mut sxy) = (0usize, 0f64, 0f64, 0f64, 0f64, 0f64);
     while let Some(i) = stack.pop() {
         reaches_edge |= dist(i) > EDGE_SHARE * r_in;
         region.push(i);
         let (x, y) = (i % w, i / w);
-        open |= x == 0 || y == 0 || x + 1 == w || y + 1 == h;
+        // A region the window cuts has no whole rim to judge, and lies past `EDGE_SHARE`:
+        // neither a glint told apart nor a core centred on. Stopping here bounds the fill on
+        // a white surface.
+        if x == 0 || y == 0 || x + 1 == w || y + 1 == h {
+            return WhiteCore::Unsure;
+        }
         if level(i) >= CLIPPED {
             let (x, y) = (x as f64, y as f64);
             n += 1;
@@ -254,7 +259,7 @@ fn white_core(img: &ColourView, window: &Window, c: Vec2, r_in: f64, (sx0, sy0):
         }
     }
     let pixel = |i: usize| (window.x0 as usize + i % w, window.y0 as usize + i / w);
-    if !open && glint_rim(rim.iter().map(|&i| img.rgb(pixel(i).0, pixel(i).1))) {
+    if glint_rim(rim.iter().map(|&i| img.rgb(pixel(i).0, pixel(i).1))) {
         return WhiteCore::Glint(
             region.into_iter().chain(rim).map(|i| (pixel(i).0 as i64, pixel(i).1 as i64)).collect(),
         );
