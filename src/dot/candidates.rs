@@ -10,7 +10,7 @@
 //!
 //! Pure Rust on an image view: the vision module hands in the pixels.
 
-use super::centre::{refine_centre, weighted_centre};
+use super::centre::{refine_centre, weighted_centre, Glint};
 use super::colour::LaserColourModel;
 use super::outline::{clipped_at_centre, hollow, outline_roughness, ContrastMap};
 use fslcal_core::Vec2;
@@ -963,25 +963,42 @@ fn blob_candidate(
     // Centred on the dot's own size (at half its peak), not its halo's: against a board
     // square's level a near dot's halo reaches the threshold 30 px out, and a disc that
     // wide took in a bubble 42 px away and moved the centre 12 px (tuning seed 2).
-    let centre = refine_centre(img, rough, core_radius_px.max(1.5), params.colour.rgb).unwrap_or(rough);
+    let centred = refine_centre(img, rough, core_radius_px.max(1.5), params.colour.rgb);
+    let centre = centred.as_ref().map_or(rough, |c| c.at);
     if let Some((line, half)) = &region.band {
         if distance_to_polyline(line, centre) > *half {
             return None;
         }
     }
     let at = centre - Vec2::new(maps.roi.x0 as f64, maps.roi.y0 as f64);
+    // A glint the centring told apart is no part of the blob's shape: with its clipped
+    // pixels counted, a dot 13 px from a glint read as a blob clipped off its centre
+    // (tuning target-less 4/08).
+    let glint = centred.as_ref().map(|c| glint_mask(&c.glint, maps.roi)).filter(|g| g.iter().any(|&h| h));
+    let own = |i: &usize| glint.as_ref().is_none_or(|g| !g[*i]);
+    let hidden = centred
+        .as_ref()
+        .map(|c| glint_mask(&c.glint.union(&c.over).copied().collect(), maps.roi))
+        .filter(|g| g.iter().any(|&h| h));
+    let (clipped_px, clipped_centroid) = if glint.is_some() {
+        clipped_part(pixels.iter().copied().filter(own).filter(|&i| maps.saturated[i]), maps.roi.w)
+    } else {
+        (m.saturated_pixels, m.clipped_centroid)
+    };
     // Clipped pixels away from the centre are no dot's core: a tuft's lightest patches, or a
     // bubble's rim inside a tuft's blob. Such a blob is judged as unclipped (its core's
     // size, its colour's noise), and when the clipped part is large enough to place, as no
     // spot at all.
-    let clipped_map = ContrastMap { excess: None, clipped: &maps.saturated, width: maps.roi.w, height: maps.roi.h };
-    let clipped_core = m.saturated_pixels > 0 && clipped_at_centre(&clipped_map, at);
-    let clipped_radius_px = (m.saturated_pixels as f64 / core::f64::consts::PI).sqrt();
+    let clipped_map =
+        ContrastMap { excess: None, clipped: &maps.saturated, hidden: None, width: maps.roi.w, height: maps.roi.h };
+    let clipped_core = clipped_px > 0 && clipped_at_centre(&clipped_map, at);
+    let clipped_radius_px = (clipped_px as f64 / core::f64::consts::PI).sqrt();
     let clipped_off_centre = clipped_radius_px >= CLIPPED_MIN_RADIUS_PX
-        && m.clipped_centroid.is_some_and(|c| (c - at).norm() > CLIPPED_OFF_CENTRE_SHARE * clipped_radius_px);
+        && clipped_centroid.is_some_and(|c| (c - at).norm() > CLIPPED_OFF_CENTRE_SHARE * clipped_radius_px);
+    let own_pixels: Vec<usize> = pixels.iter().copied().filter(own).collect();
     let outline_roughness = if clipped_core {
         None
-    } else if clipped_off_centre || hollow_blob(img, maps, pixels, at, m.peak) {
+    } else if clipped_off_centre || hollow_blob(img, maps, &own_pixels, at, m.peak) {
         Some(1.0)
     } else {
         (core_radius_px >= OUTLINE_MIN_RADIUS_PX && m.peak >= OUTLINE_MIN_PEAK_SIGMAS * maps.sigma)
@@ -989,6 +1006,7 @@ fn blob_candidate(
                 let map = ContrastMap {
                     excess: Some(&maps.excess),
                     clipped: &maps.saturated,
+                    hidden: hidden.as_deref(),
                     width: maps.roi.w,
                     height: maps.roi.h,
                 };
@@ -1322,14 +1340,30 @@ fn same_surface(ring: &[[f64; 3]], near: &[f64]) -> Vec<[f64; 3]> {
 /// which they are two surfaces.
 const SURFACE_SPLIT_LEVELS: f64 = 60.0;
 
+/// How many of `clipped` (ROI pixels, row-major over `width`) there are, and their mean
+/// position (ROI pixels; `None` when there are none).
+fn clipped_part(clipped: impl Iterator<Item = usize>, width: usize) -> (usize, Option<Vec2>) {
+    let (n, sum) = clipped
+        .fold((0usize, Vec2::zeros()), |(n, sum), i| (n + 1, sum + Vec2::new((i % width) as f64, (i / width) as f64)));
+    (n, (n > 0).then(|| sum / n as f64))
+}
+
+/// A glint's pixels (image x, y) as a mask over `roi`'s pixels.
+fn glint_mask(glint: &Glint, roi: Roi) -> Vec<bool> {
+    let mut mask = vec![false; if glint.is_empty() { 0 } else { roi.w * roi.h }];
+    for &(x, y) in glint {
+        let (x, y) = (x - roi.x0 as i64, y - roi.y0 as i64);
+        if (0..roi.w as i64).contains(&x) && (0..roi.h as i64).contains(&y) {
+            mask[y as usize * roi.w + x as usize] = true;
+        }
+    }
+    mask
+}
+
 /// A blob's peak, SNR and box; `None` for an elongated blob.
 fn measure_blob(maps: &RoiMaps, pixels: &[usize]) -> Option<BlobMeasures> {
     let (saturated, w) = (&maps.saturated, maps.roi.w);
-    let (sat_count, sat_sum) = pixels
-        .iter()
-        .filter(|&&i| saturated[i])
-        .fold((0usize, Vec2::zeros()), |(n, sum), &i| (n + 1, sum + Vec2::new((i % w) as f64, (i / w) as f64)));
-    let clipped_centroid = (sat_count > 0).then(|| sat_sum / sat_count as f64);
+    let (sat_count, clipped_centroid) = clipped_part(pixels.iter().copied().filter(|&i| saturated[i]), w);
     let green: Vec<f32> = pixels.iter().filter(|&&i| !saturated[i]).map(|&i| maps.excess[i].max(0.0)).collect();
     // A core clipped throughout shows no contrast of its own: count it at the threshold, and
     // let its fringe's colour decide (in `blob_colour`).
@@ -1686,6 +1720,30 @@ mod tests {
         let c = find_dot_candidates(&view(&data, w, h), &band, &DotDetectorParams::default().sensitive(), 4);
         let dot = c.iter().find(|c| (c.pixel - truth).norm() < 0.6);
         assert!(dot.is_some(), "no candidate within 0.6 px of the dot: {c:?}");
+    }
+
+    /// A dot of 70 levels in green water with a glint 7 px across 12 px from it, their halos
+    /// touching (tuning target-less 4/08): one blob, clipped only in the glint. The glint's
+    /// pixels and its halo are left out of the blob's shape, so the dot is not a blob
+    /// clipped off its centre, nor an outline bulging toward the glint.
+    #[test]
+    fn a_glint_beside_a_dot_is_no_part_of_its_outline() {
+        let (w, h) = (160usize, 120usize);
+        let (truth, glint) = (Vec2::new(80.4, 60.3), Vec2::new(88.9, 66.9));
+        let data = paint(w, h, |x, y| {
+            let dot = spot(x, y, truth, 70.0, 3.0);
+            let gl = spot(x, y, glint, 3000.0, 1.6);
+            let noise = grain(x, y);
+            [27.0 + 0.3 * dot + 0.9 * gl + noise, 138.0 + dot + gl + noise, 70.0 + 0.4 * dot + 0.9 * gl + noise]
+        });
+        let line = vec![Vec2::new(80.4, 0.0), Vec2::new(80.4, 119.0)];
+        let polygon =
+            vec![Vec2::new(50.0, 0.0), Vec2::new(110.0, 0.0), Vec2::new(110.0, 119.0), Vec2::new(50.0, 119.0)];
+        let band = SearchRegion { polygon, band: Some((line, 4.0)), squares: Vec::new() };
+        let c = find_dot_candidates(&view(&data, w, h), &band, &DotDetectorParams::default().sensitive(), 4);
+        let dot = c.iter().find(|c| (c.pixel - truth).norm() < 0.6);
+        let dot = dot.unwrap_or_else(|| panic!("no candidate within 0.6 px of the dot: {c:?}"));
+        assert!(dot.outline_roughness.is_some_and(|r| r < 0.06), "{dot:?}");
     }
 
     /// A board in green water, where the squares' contrast lies along a green laser's

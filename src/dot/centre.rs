@@ -47,22 +47,55 @@ pub(super) fn weighted_centre(maps: &RoiMaps, id: u32, (mnx, mxx, mny, mxy): Blo
 /// alone ([`clipped_core_centre`]): the beam clips white where it is brightest, round about
 /// its centre, while clipped green and a fringe above the floor take in whatever bright
 /// green touches the dot (an algae tuft, a sun fleck's glow).
-pub(super) fn refine_centre(img: &ColourView, rough: Vec2, blob_radius_px: f64, laser_rgb: [f64; 3]) -> Option<Vec2> {
+pub(super) fn refine_centre(
+    img: &ColourView,
+    rough: Vec2,
+    blob_radius_px: f64,
+    laser_rgb: [f64; 3],
+) -> Option<Centred> {
     let r_in = blob_radius_px * 1.6 + 3.0;
     let ring = (r_in + 2.0, r_in + 6.0);
     let mut c = rough;
-    for _ in 0..3 {
+    let (mut glint, mut over) = (Glint::new(), Glint::new());
+    let mut step = 0;
+    // A glint beside the dot, left out with its mirror image (which moves with the centre),
+    // moves the centre a pixel or more per step: it takes more steps to settle.
+    while step < if glint.is_empty() { 3 } else { 8 } {
+        step += 1;
         let window = Window::around(img, c, ring.1)?;
         let background = Background::fit(img, &window, c, ring, laser_rgb)?;
-        let disc = DiscSignal::sum(img, &window, c, r_in, &background);
+        let disc = DiscSignal::sum(img, &window, c, r_in, &background, &Glint::new());
         let next = if disc.saturated.is_empty() {
             // A faint dot (nothing clipped) is found better by a matched filter than by a
             // thresholded centroid, whose few surviving pixels are at the noise's mercy.
             matched_filter_peak(img, c, r_in, blob_radius_px, &|r, g, b| background.residual(r, g, b))?
         } else {
             match disc.nearest_white.map(|seed| white_core(img, &window, c, r_in, seed)) {
-                Some(WhiteCore::Dot(at)) => at,
-                Some(WhiteCore::Glint(glint)) => disc.without(&glint).centroid_with_core(background.floor)?,
+                Some(WhiteCore::Dot(at)) => {
+                    glint.clear();
+                    over.clear();
+                    at
+                }
+                Some(WhiteCore::Glint(found)) => {
+                    // A glint on the dot itself (1 px off on tuning target-less 7/18): its
+                    // halo is the dot's light too, and only its clipped pixels are left out.
+                    // It stays a clipped core for what judges the blob after.
+                    if found.contains(&(c.x.round() as i64, c.y.round() as i64)) {
+                        glint.clear();
+                        over = with_halo(&found);
+                        disc.without(&found).centroid_with_core(background.floor)?
+                    } else {
+                        over.clear();
+                        glint = with_halo(&found);
+                        DiscSignal::sum(img, &window, c, r_in, &background, &glint)
+                            .centroid_with_core(background.floor)?
+                    }
+                }
+                // A glint found at an earlier step stays one when the centre has moved so far
+                // from it that only its halo is left in the disc.
+                Some(WhiteCore::Unsure) | None if !glint.is_empty() => {
+                    DiscSignal::sum(img, &window, c, r_in, &background, &glint).centroid_with_core(background.floor)?
+                }
                 Some(WhiteCore::Unsure) | None => disc.centroid_with_core(background.floor)?,
             }
         };
@@ -75,7 +108,38 @@ pub(super) fn refine_centre(img: &ColourView, rough: Vec2, blob_radius_px: f64, 
             break;
         }
     }
-    Some(c)
+    Some(Centred { at: c, glint, over })
+}
+
+/// Image pixels (x, y) of a glint.
+pub(super) type Glint = std::collections::HashSet<(i64, i64)>;
+
+/// A glint's pixels with its halo, those within [`GLINT_HALO_PX`] of them.
+fn with_halo(glint: &Glint) -> Glint {
+    let reach = GLINT_HALO_PX as i64;
+    let disc: Vec<(i64, i64)> = (-reach..=reach)
+        .flat_map(|dy| (-reach..=reach).map(move |dx| (dx, dy)))
+        .filter(|&(dx, dy)| dx * dx + dy * dy <= reach * reach)
+        .collect();
+    glint.iter().flat_map(|&(x, y)| disc.iter().map(move |&(dx, dy)| (x + dx, y + dy))).collect()
+}
+
+/// How far beyond its near-white rim a glint's light still lifts the dot's signal, pixels:
+/// the optics' blur, over which the glint of tuning target-less 4/08 fell from white to its
+/// green water's level (about 3 px). Left in, that halo read as a bulge of the dot's
+/// outline toward the glint (0.110 rough against 0.10) and pulls a centroid toward it.
+const GLINT_HALO_PX: f64 = 3.0;
+
+/// A blob's refined centre ([`refine_centre`]).
+pub(super) struct Centred {
+    /// The dot's centre, image pixels.
+    pub at: Vec2,
+    /// The glint found beside it and left out of the centring, its halo included (empty if
+    /// none): its pixels are no part of the dot's outline either.
+    pub glint: Glint,
+    /// A glint over the dot itself, its halo included (empty if none): the dot's clipped
+    /// core may lie under it, but its outline there is the glint's.
+    pub over: Glint,
 }
 
 /// The pixel square (inclusive bounds) that holds the disc of `radius` around `c`.
@@ -203,7 +267,7 @@ enum WhiteCore {
     Dot(Vec2),
     /// A glint: white with no clipped green around it. Its pixels (image x, y), near-white
     /// ones and its rim included.
-    Glint(std::collections::HashSet<(i64, i64)>),
+    Glint(Glint),
     /// Neither can be told: too small, not round, or reaching the disc's edge.
     Unsure,
 }
@@ -328,11 +392,23 @@ struct DiscSignal {
 }
 
 impl DiscSignal {
-    fn sum(img: &ColourView, window: &Window, c: Vec2, r_in: f64, background: &Background) -> DiscSignal {
+    /// Over the disc less the pixels of `glint` and their mirror images through `c`.
+    fn sum(
+        img: &ColourView,
+        window: &Window,
+        c: Vec2,
+        r_in: f64,
+        background: &Background,
+        glint: &Glint,
+    ) -> DiscSignal {
         let mut disc = DiscSignal { peak: 0f64, acc: (0f64, 0f64, 0f64), saturated: Vec::new(), nearest_white: None };
         let mut white_d = f64::INFINITY;
         for (x, y, d) in window.pixels(c) {
-            if d > r_in {
+            // A glint's pixels and their mirror images through the centre: left out on one
+            // side only, the dot's own light there would be missed and the centroid pushed
+            // away from the glint (1.1 px for a glint 9 px off).
+            let mirror = ((2.0 * c.x).round() as i64 - x, (2.0 * c.y).round() as i64 - y);
+            if d > r_in || glint.contains(&(x, y)) || glint.contains(&mirror) {
                 continue;
             }
             let (r, g, b) = img.rgb(x as usize, y as usize);
@@ -355,7 +431,7 @@ impl DiscSignal {
     }
 
     /// The signal without a glint's pixels among the clipped ones.
-    fn without(mut self, glint: &std::collections::HashSet<(i64, i64)>) -> DiscSignal {
+    fn without(mut self, glint: &Glint) -> DiscSignal {
         self.saturated.retain(|&(x, y)| !glint.contains(&(x as i64, y as i64)));
         self
     }

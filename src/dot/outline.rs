@@ -18,6 +18,9 @@ use nalgebra::{SMatrix, SVector};
 const RAYS: usize = 64;
 /// Step along a ray, pixels.
 const STEP_PX: f64 = 0.25;
+/// Least share of the rays that must reach the outline unhidden for it to be judged: a
+/// glint covering more of a dot's surroundings leaves too little of its outline to fit.
+const MIN_TRACED_SHARE: f64 = 0.5;
 
 /// A blob's contrast map: row-major `width * height` levels; a clipped pixel has no contrast
 /// of its own and counts at the level the caller gives ([`ContrastMap::at`]'s `peak`).
@@ -25,11 +28,23 @@ pub(super) struct ContrastMap<'a> {
     /// `None`: no contrast outside the clipped pixels (the outline of the clipped part).
     pub excess: Option<&'a [f32]>,
     pub clipped: &'a [bool],
+    /// Pixels whose level is not the blob's (a glint's beside a dot): a ray that meets one
+    /// has no outline of the blob to find ([`outline_roughness`]).
+    pub hidden: Option<&'a [bool]>,
     pub width: usize,
     pub height: usize,
 }
 
 impl ContrastMap<'_> {
+    /// Whether any of the pixels bilinear interpolation at `(x, y)` reads is hidden.
+    fn hidden_at(&self, x: f64, y: f64) -> bool {
+        let Some(hidden) = self.hidden else { return false };
+        let (ix, iy) = (x.floor().max(0.0) as usize, y.floor().max(0.0) as usize);
+        [(ix, iy), (ix + 1, iy), (ix, iy + 1), (ix + 1, iy + 1)]
+            .iter()
+            .any(|&(x, y)| x < self.width && y < self.height && hidden[y * self.width + x])
+    }
+
     /// Bilinear value at `(x, y)` (pixel centres at integers); `None` off the map.
     fn at(&self, x: f64, y: f64, peak: f64) -> Option<f64> {
         let (ix, iy) = (x.floor(), y.floor());
@@ -57,9 +72,10 @@ impl ContrastMap<'_> {
 
 /// The roughness of the half-`peak` outline around `centre` (map pixels): the RMS distance
 /// of the outline from its best-fitting ellipse as a share of its mean radius, less what
-/// noise of `sigma` levels explains. `None` when the outline cannot be traced (the centre
-/// is below half the peak, or a ray runs `reach_px` without falling below half the peak,
-/// or leaves the map).
+/// noise of `sigma` levels explains. Rays that meet a hidden pixel before the outline are
+/// left out. `None` when the outline cannot be traced (the centre is below half the peak, a
+/// ray runs `reach_px` without falling below half the peak or leaves the map, or fewer than
+/// [`MIN_TRACED_SHARE`] of the rays are left).
 pub(super) fn outline_roughness(map: &ContrastMap, centre: Vec2, peak: f64, sigma: f64, reach_px: f64) -> Option<f64> {
     // Half the level at the centre, not half the blob's brightest pixel: a faint blob's
     // brightest pixel is its noise's, and a dot is brightest at its centre anyway.
@@ -71,17 +87,22 @@ pub(super) fn outline_roughness(map: &ContrastMap, centre: Vec2, peak: f64, sigm
     }
     let peak = level;
     let half = 0.5 * peak;
-    let mut radii = [0f64; RAYS];
-    for (k, r) in radii.iter_mut().enumerate() {
+    // (ray, radius) of each ray traced.
+    let mut radii = Vec::with_capacity(RAYS);
+    'rays: for k in 0..RAYS {
         let theta = core::f64::consts::TAU * k as f64 / RAYS as f64;
         let (ux, uy) = (theta.cos(), theta.sin());
         let mut prev = map.at(centre.x, centre.y, peak)?;
         let mut t = STEP_PX;
-        *r = loop {
+        let r = loop {
             if t > reach_px {
                 return None;
             }
-            let v = map.at(centre.x + ux * t, centre.y + uy * t, peak)?;
+            let (x, y) = (centre.x + ux * t, centre.y + uy * t);
+            if map.hidden_at(x, y) {
+                continue 'rays;
+            }
+            let v = map.at(x, y, peak)?;
             if v < half {
                 let frac = if prev > v { (prev - half).max(0.0) / (prev - v) } else { 1.0 };
                 break t - STEP_PX + STEP_PX * frac.min(1.0);
@@ -89,27 +110,29 @@ pub(super) fn outline_roughness(map: &ContrastMap, centre: Vec2, peak: f64, sigm
             prev = v;
             t += STEP_PX;
         };
+        radii.push((k, r));
     }
-    let mut sorted = radii;
+    if (radii.len() as f64) < MIN_TRACED_SHARE * RAYS as f64 {
+        return None;
+    }
+    let mut sorted: Vec<f64> = radii.iter().map(|&(_, r)| r).collect();
     sorted.sort_by(f64::total_cmp);
-    let median = 0.5 * (sorted[RAYS / 2 - 1] + sorted[RAYS / 2]);
+    let n = sorted.len();
+    let median = 0.5 * (sorted[(n - 1) / 2] + sorted[n / 2]);
     // A centred or off-centre ellipse in polar form: r^-2 is linear in 1, cos 2t, sin 2t
     // (and, for a small offset of the centre, cos t, sin t).
     let mut ata = SMatrix::<f64, 5, 5>::zeros();
     let mut atb = SVector::<f64, 5>::zeros();
-    for (k, r) in radii.iter().enumerate() {
+    for &(k, r) in &radii {
         let row = ellipse_terms(k);
         ata += row * row.transpose();
         atb += row * r.max(1e-3).powi(-2);
     }
     let coef = ata.cholesky()?.solve(&atb);
-    let mut residuals = [0f64; RAYS];
-    for (k, (r, res)) in radii.iter().zip(residuals.iter_mut()).enumerate() {
-        // A ray the fitted ellipse does not reach at all (a leak into a neighbour, a pit)
-        // counts as one radius off, not as infinitely far.
-        *res = (r - ellipse_terms(k).dot(&coef).max(1e-9).powf(-0.5)).abs().min(median);
-    }
-    let rough = (residuals.iter().map(|r| r * r).sum::<f64>() / RAYS as f64).sqrt() / median;
+    // A ray the fitted ellipse does not reach at all (a leak into a neighbour, a pit)
+    // counts as one radius off, not as infinitely far.
+    let residual = |&(k, r): &(usize, f64)| (r - ellipse_terms(k).dot(&coef).max(1e-9).powf(-0.5)).abs().min(median);
+    let rough = (radii.iter().map(|ray| residual(ray).powi(2)).sum::<f64>() / n as f64).sqrt() / median;
     // A blurred edge falls from the peak over about 2.5 px: noise of `sigma` moves the
     // crossing by 2.5 sigma / peak pixels.
     let noise = 2.5 * sigma / (peak.max(1e-9) * median.max(1e-9));
@@ -224,7 +247,7 @@ mod tests {
         });
         let clipped = vec![false; w * h];
         let rough = |m: &[f32]| {
-            let map = ContrastMap { excess: Some(m), clipped: &clipped, width: w, height: h };
+            let map = ContrastMap { excess: Some(m), clipped: &clipped, hidden: None, width: w, height: h };
             outline_roughness(&map, c, 100.0, 2.0, 30.0).expect("traced")
         };
         let (smooth, ragged) = (rough(&ellipse), rough(&lobed));
@@ -244,7 +267,7 @@ mod tests {
             (0..w * h).map(|i| f((i % w) as f64, (i / w) as f64)).collect()
         };
         let judge = |m: &[bool]| {
-            let map = ContrastMap { excess: None, clipped: m, width: w, height: h };
+            let map = ContrastMap { excess: None, clipped: m, hidden: None, width: w, height: h };
             !clipped_at_centre(&map, c)
         };
         let disc = mask(&|x, y| (x - 43.0).hypot(y - 40.0) <= 8.0);
@@ -292,7 +315,7 @@ mod tests {
         let (w, h) = (30usize, 30usize);
         let flat = vec![50f32; w * h];
         let clipped = vec![false; w * h];
-        let map = ContrastMap { excess: Some(&flat), clipped: &clipped, width: w, height: h };
+        let map = ContrastMap { excess: Some(&flat), clipped: &clipped, hidden: None, width: w, height: h };
         assert_eq!(outline_roughness(&map, Vec2::new(15.0, 15.0), 50.0, 1.0, 10.0), None);
         assert_eq!(outline_roughness(&map, Vec2::new(15.0, 15.0), 50.0, 1.0, 40.0), None);
     }
