@@ -1699,6 +1699,16 @@ mod tests {
         assert!(c.iter().all(|c| (c.pixel - truth).norm() >= 1.0 && !c.beside_clipped), "{c:?}");
     }
 
+    /// The sensitive search along a vertical laser line at x = 80.4 (a 4 px band) of a
+    /// `w` x `h` image at least 120 px high.
+    fn along_line_at_x_80(data: &[u8], w: usize, h: usize) -> Vec<DotCandidate> {
+        let line = vec![Vec2::new(80.4, 0.0), Vec2::new(80.4, 119.0)];
+        let polygon =
+            vec![Vec2::new(50.0, 0.0), Vec2::new(110.0, 0.0), Vec2::new(110.0, 119.0), Vec2::new(50.0, 119.0)];
+        let band = SearchRegion { polygon, band: Some((line, 4.0)), squares: Vec::new() };
+        find_dot_candidates(&view(data, w, h), &band, &DotDetectorParams::default().sensitive(), 4)
+    }
+
     /// A glint 3 px across on the halo of a dot of 180 levels, 12 px from it, in bright blue
     /// water: the glint is the only white in reach, and its channels fall off together, so
     /// its rim clips no green (tuning target-less 16/00, where the dot was centred on the
@@ -1713,16 +1723,12 @@ mod tests {
             let noise = grain(x, y);
             [35.0 + 0.08 * dot + gl + noise, 110.0 + dot + gl + noise, 212.0 + 0.5 * dot + gl + noise]
         });
-        let line = vec![Vec2::new(80.4, 0.0), Vec2::new(80.4, 119.0)];
-        let polygon =
-            vec![Vec2::new(50.0, 0.0), Vec2::new(110.0, 0.0), Vec2::new(110.0, 119.0), Vec2::new(50.0, 119.0)];
-        let band = SearchRegion { polygon, band: Some((line, 4.0)), squares: Vec::new() };
-        let c = find_dot_candidates(&view(&data, w, h), &band, &DotDetectorParams::default().sensitive(), 4);
+        let c = along_line_at_x_80(&data, w, h);
         let dot = c.iter().find(|c| (c.pixel - truth).norm() < 0.6);
         assert!(dot.is_some(), "no candidate within 0.6 px of the dot: {c:?}");
     }
 
-    /// A dot of 70 levels in green water with a glint 7 px across 12 px from it, their halos
+    /// A dot of 70 levels in green water with a glint 7 px across 11 px from it, their halos
     /// touching (tuning target-less 4/08): one blob, clipped only in the glint. The glint's
     /// pixels and its halo are left out of the blob's shape, so the dot is not a blob
     /// clipped off its centre, nor an outline bulging toward the glint.
@@ -1736,11 +1742,7 @@ mod tests {
             let noise = grain(x, y);
             [27.0 + 0.3 * dot + 0.9 * gl + noise, 138.0 + dot + gl + noise, 70.0 + 0.4 * dot + 0.9 * gl + noise]
         });
-        let line = vec![Vec2::new(80.4, 0.0), Vec2::new(80.4, 119.0)];
-        let polygon =
-            vec![Vec2::new(50.0, 0.0), Vec2::new(110.0, 0.0), Vec2::new(110.0, 119.0), Vec2::new(50.0, 119.0)];
-        let band = SearchRegion { polygon, band: Some((line, 4.0)), squares: Vec::new() };
-        let c = find_dot_candidates(&view(&data, w, h), &band, &DotDetectorParams::default().sensitive(), 4);
+        let c = along_line_at_x_80(&data, w, h);
         let dot = c.iter().find(|c| (c.pixel - truth).norm() < 0.6);
         let dot = dot.unwrap_or_else(|| panic!("no candidate within 0.6 px of the dot: {c:?}"));
         assert!(dot.outline_roughness.is_some_and(|r| r < 0.06), "{dot:?}");

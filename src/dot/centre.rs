@@ -130,6 +130,11 @@ fn with_halo(glint: &Glint) -> Glint {
 /// outline toward the glint (0.110 rough against 0.10) and pulls a centroid toward it.
 const GLINT_HALO_PX: f64 = 3.0;
 
+/// The pixel that mirrors `(x, y)` through `c`.
+fn mirror(c: Vec2, x: i64, y: i64) -> (i64, i64) {
+    ((2.0 * c.x).round() as i64 - x, (2.0 * c.y).round() as i64 - y)
+}
+
 /// A blob's refined centre ([`refine_centre`]).
 pub(super) struct Centred {
     /// The dot's centre, image pixels.
@@ -407,8 +412,7 @@ impl DiscSignal {
             // A glint's pixels and their mirror images through the centre: left out on one
             // side only, the dot's own light there would be missed and the centroid pushed
             // away from the glint (1.1 px for a glint 9 px off).
-            let mirror = ((2.0 * c.x).round() as i64 - x, (2.0 * c.y).round() as i64 - y);
-            if d > r_in || glint.contains(&(x, y)) || glint.contains(&mirror) {
+            if d > r_in || (!glint.is_empty() && (glint.contains(&(x, y)) || glint.contains(&mirror(c, x, y)))) {
                 continue;
             }
             let (r, g, b) = img.rgb(x as usize, y as usize);
