@@ -121,9 +121,10 @@ pub struct DotCandidate {
     /// it ([`super::outline::clipped_at_centre`]), or when its middle is dim against its
     /// bright part ([`super::outline::hollow`], a bubble's rim): no beam's footprint.
     pub outline_roughness: Option<f64>,
-    /// Found beside a glint's clipped part inside a larger blob, as a spot of its own
-    /// (`beside_clipped`); the larger blob is a candidate too.
-    pub beside_clipped: bool,
+    /// Found as a spot of its own inside a larger blob: beside a glint's clipped part
+    /// (`beside_clipped`), or on a surface the blob floods over (`peak_inside`). The larger
+    /// blob is a candidate too when it is one.
+    pub split_from_blob: bool,
     /// Mean excess (R, G, B) of the scored pixels over the local background, 8-bit levels:
     /// what a calibration learns the laser's colour from.
     pub excess_rgb: [f64; 3],
@@ -264,30 +265,46 @@ pub fn find_dot_candidates(
         let id = next;
         next += 1;
         let pixels = maps.flood_fill(start, id, params.max_area_px);
-        let Some(c) = blob_candidate(img, region, params, &maps, &pixels, id) else {
+        let whole = blob_candidate(img, region, params, &maps, &pixels, id);
+        // Spots are split from a blob only where a band is known (along a line, or around a
+        // calibration's predicted dot), whose gate judges a spot against its parent. On a
+        // whole target the consensus over photos picks among the candidates; an earlier form
+        // of the glint's split there changed three tuning companion calibrations.
+        let Some(band) = &region.band else {
+            candidates.extend(whole);
             continue;
         };
-        let on_clipped = c.saturated_core;
-        let at = c.pixel;
-        candidates.push(c);
-        // Only along a line, where the line's gate judges the split spot against its parent.
-        // On a target the consensus over photos picks among the candidates; an earlier form
-        // of the split there changed three tuning companion calibrations, and this one has
-        // not been measured there.
-        if region.band.is_none() || !on_clipped {
-            continue;
+        if whole.as_ref().is_some_and(|c| c.saturated_core) {
+            if let Some(spot) = beside_clipped(img, &mut maps, &pixels, id, next) {
+                candidates.extend(split_candidate(img, region, params, &maps, &spot, next, whole.as_ref()));
+                next += 1;
+            }
         }
-        if let Some(beside) = beside_clipped(img, &mut maps, &pixels, next) {
+        if let Some(spot) = peak_inside(&mut maps, &pixels, id, next, band) {
+            candidates.extend(split_candidate(img, region, params, &maps, &spot, next, whole.as_ref()));
             next += 1;
-            let b = blob_candidate(img, region, params, &maps, &beside, next - 1);
-            // A spot the blob's own candidate is centred on is no second one.
-            let b = b.filter(|b| (b.pixel - at).norm() >= 2.0 * b.radius_px.max(2.0));
-            candidates.extend(b.map(|b| DotCandidate { beside_clipped: true, ..b }));
         }
+        candidates.extend(whole);
     }
     candidates.sort_by(|a, b| b.snr.total_cmp(&a.snr));
     candidates.truncate(max);
     candidates
+}
+
+/// The candidate of a spot split from a blob (labelled `id`), unless the blob's own
+/// candidate (`whole`) is centred on it: then it is no second spot.
+fn split_candidate(
+    img: &ColourView,
+    region: &SearchRegion,
+    params: &DotDetectorParams,
+    maps: &RoiMaps,
+    spot: &[usize],
+    id: u32,
+    whole: Option<&DotCandidate>,
+) -> Option<DotCandidate> {
+    let c = blob_candidate(img, region, params, maps, spot, id)?;
+    let apart = whole.is_none_or(|w| (c.pixel - w.pixel).norm() >= 2.0 * c.radius_px.max(2.0));
+    apart.then_some(DotCandidate { split_from_blob: true, ..c })
 }
 
 /// Least distance, pixels (8-connected steps), from a blob's clipped part at which a peak of
@@ -316,9 +333,8 @@ const GLINT_FRINGE_WHITENESS: f64 = 3.0;
 /// fringe rises toward the core, so its farthest pixels are no peak). Its pixels, those
 /// reached from it at half its contrast or more and clear of the fringe, are labelled `id`
 /// and returned.
-fn beside_clipped(img: &ColourView, maps: &mut RoiMaps, pixels: &[usize], id: u32) -> Option<Vec<usize>> {
+fn beside_clipped(img: &ColourView, maps: &mut RoiMaps, pixels: &[usize], own: u32, id: u32) -> Option<Vec<usize>> {
     let (w, h) = (maps.roi.w, maps.roi.h);
-    let own = maps.label[*pixels.first()?];
     let (x0, x1, y0, y1) = blob_box(pixels, w);
     // Steps from the clipped part over the blob's box (multi-source breadth first).
     let bw = x1 - x0 + 1;
@@ -389,6 +405,113 @@ fn beside_clipped(img: &ColourView, maps: &mut RoiMaps, pixels: &[usize], id: u3
                 spot.push(j);
             }
         }
+    }
+    Some(spot)
+}
+
+/// Least blob, pixels, searched for a dot inside it ([`peak_inside`]). On the tuning
+/// target-less photos, 800 px (a disc 32 px across) found three dots inside fish and reef
+/// blobs of 1 500-8 900 px and lost none; 400 px found two more but split a fin's 708 px
+/// blob into a speck beside a dot (ambiguous) and took a speck for a faint dot; 1 500 px
+/// found one fewer.
+const PEAK_INSIDE_MIN_BLOB_PX: usize = 800;
+
+/// Largest share of its blob that a spot found inside it may cover: a larger one is the
+/// blob's own bright part, not a dot on it.
+const PEAK_INSIDE_MAX_SHARE: f64 = 0.25;
+
+/// A dot inside a larger blob: on a fish or a reef lit brighter than the water along the
+/// laser's colour, the surface floods into one blob with the dot, and the blob's centre is
+/// the surface's, off the line (tuning target-less 16/15: a dot of 152 levels in a fish's
+/// 8 900 px blob centred 80 px from it). The spot is the blob's brightest part on the band,
+/// a clipped part first (a near dot's core clips); its pixels are those reached from it at
+/// half its level or more, or, where that floods the surface, at half its level over the
+/// blob's median. It must be a local peak and at most [`PEAK_INSIDE_MAX_SHARE`] of the
+/// blob. Its pixels are labelled `id` and returned.
+fn peak_inside(maps: &mut RoiMaps, pixels: &[usize], own: u32, id: u32, band: &(Vec<Vec2>, f64)) -> Option<Vec<usize>> {
+    if pixels.len() < PEAK_INSIDE_MIN_BLOB_PX {
+        return None;
+    }
+    let (w, h) = (maps.roi.w, maps.roi.h);
+    let (line, half) = band;
+    let rank = |i: usize| if maps.saturated[i] { f32::INFINITY } else { maps.excess[i] };
+    let mut peak: Option<usize> = None;
+    for &i in pixels {
+        // The band's distance only for a pixel that would be the new peak.
+        if peak.is_none_or(|p| rank(i) > rank(p))
+            && distance_to_polyline(line, maps.roi.image_point(i % w, i / w)) <= *half
+        {
+            peak = Some(i);
+        }
+    }
+    let peak = peak?;
+    maps.label[peak] = id;
+    let mut seeds = vec![peak];
+    let level = if maps.saturated[peak] {
+        // The clipped part's own level is its brightest unclipped neighbour's.
+        let mut fringe = 0f32;
+        let mut k = 0;
+        while k < seeds.len() {
+            let i = seeds[k];
+            k += 1;
+            for (x, y) in neighbours8(i % w, i / w, w, h) {
+                let j = y * w + x;
+                if maps.label[j] == own && maps.saturated[j] {
+                    maps.label[j] = id;
+                    seeds.push(j);
+                } else if maps.label[j] == own {
+                    fringe = fringe.max(maps.excess[j]);
+                }
+            }
+        }
+        fringe
+    } else {
+        maps.excess[peak]
+    };
+    let is_peak =
+        maps.saturated[peak] || neighbours8(peak % w, peak / w, w, h).all(|(x, y)| maps.excess[y * w + x] <= level);
+    let most = (PEAK_INSIDE_MAX_SHARE * pixels.len() as f64) as usize;
+    let spot = is_peak.then(|| grow_spot(maps, &seeds, (own, id), 0.5 * level, most)).flatten().or_else(|| {
+        let mut levels: Vec<f32> = pixels.iter().map(|&i| maps.excess[i]).collect();
+        let mid = levels.len() / 2;
+        let base = *levels.select_nth_unstable_by(mid, |a, b| a.total_cmp(b)).1;
+        let cut = base + 0.5 * (level - base);
+        (is_peak && level - base >= maps.threshold).then(|| grow_spot(maps, &seeds, (own, id), cut, most)).flatten()
+    });
+    match spot {
+        Some(spot) if spot.len() >= 2 => Some(spot),
+        _ => {
+            for &i in &seeds {
+                maps.label[i] = own;
+            }
+            None
+        }
+    }
+}
+
+/// The pixels of blob `labels.0` reached from `seeds` (already labelled `labels.1`) through
+/// pixels clipped or of excess `cut` or more, labelled `labels.1`; `None`, with only the
+/// seeds left labelled, when they are more than `most`.
+fn grow_spot(maps: &mut RoiMaps, seeds: &[usize], (own, id): (u32, u32), cut: f32, most: usize) -> Option<Vec<usize>> {
+    let (w, h) = (maps.roi.w, maps.roi.h);
+    let mut spot = seeds.to_vec();
+    let mut k = 0;
+    while k < spot.len() && spot.len() <= most {
+        let i = spot[k];
+        k += 1;
+        for (x, y) in neighbours8(i % w, i / w, w, h) {
+            let j = y * w + x;
+            if maps.label[j] == own && (maps.saturated[j] || maps.excess[j] >= cut) {
+                maps.label[j] = id;
+                spot.push(j);
+            }
+        }
+    }
+    if spot.len() > most {
+        for &i in &spot[seeds.len()..] {
+            maps.label[i] = own;
+        }
+        return None;
     }
     Some(spot)
 }
@@ -1038,7 +1161,7 @@ fn blob_candidate(
             score.angle_sigma_rad
         },
         outline_roughness,
-        beside_clipped: false,
+        split_from_blob: false,
         excess_rgb: colour.excess_rgb,
         colour_filled_in: colour.filled_in,
     })
@@ -1693,10 +1816,10 @@ mod tests {
         let on_glint = c.iter().find(|c| (c.pixel - glint).norm() < 3.0);
         assert!(on_glint.is_some_and(|g| g.saturated_core), "the merged blob sits on the glint: {c:?}");
         let dot = c.iter().find(|c| (c.pixel - truth).norm() < 1.0);
-        assert!(dot.is_some_and(|d| d.beside_clipped), "{c:?}");
+        assert!(dot.is_some_and(|d| d.split_from_blob), "{c:?}");
         let whole = SearchRegion { polygon, band: None, squares: Vec::new() };
         let c = find_dot_candidates(&view(&data, w, h), &whole, &params, 8);
-        assert!(c.iter().all(|c| (c.pixel - truth).norm() >= 1.0 && !c.beside_clipped), "{c:?}");
+        assert!(c.iter().all(|c| (c.pixel - truth).norm() >= 1.0 && !c.split_from_blob), "{c:?}");
     }
 
     /// The sensitive search along a vertical laser line at x = 80.4 (a 4 px band) of a
@@ -1746,6 +1869,52 @@ mod tests {
         let dot = c.iter().find(|c| (c.pixel - truth).norm() < 0.6);
         let dot = dot.unwrap_or_else(|| panic!("no candidate within 0.6 px of the dot: {c:?}"));
         assert!(dot.outline_roughness.is_some_and(|r| r < 0.06), "{dot:?}");
+    }
+
+    /// A fish lit greener than the blue water it swims in, 140 x 32 px, with the laser's
+    /// line crossing it 50 px from its middle, at x = 120.4.
+    fn fish_across_the_line(dot: Option<(Vec2, f64)>) -> (Vec<u8>, usize, usize) {
+        let (w, h) = (240usize, 200usize);
+        let data = paint(w, h, |x, y| {
+            let (u, v) = ((x as f64 - 70.0) / 70.0, (y as f64 - 100.0) / 16.0);
+            // Lit across a 2 px edge, as a blurred outline.
+            let body = (1.0 - (u * u + v * v).sqrt()).clamp(-0.04, 0.04) / 0.08 + 0.5;
+            let d = dot.map_or(0.0, |(at, peak)| spot(x, y, at, peak, 3.0));
+            let noise = grain(x, y);
+            [
+                20.0 + 10.0 * body + 0.1 * d + noise,
+                80.0 + 50.0 * body + d + noise,
+                110.0 + 12.0 * body + 0.5 * d + noise,
+            ]
+        });
+        (data, w, h)
+    }
+
+    fn along_line_at_x_120(data: &[u8], w: usize, h: usize) -> Vec<DotCandidate> {
+        let line = vec![Vec2::new(120.4, 0.0), Vec2::new(120.4, 199.0)];
+        let polygon =
+            vec![Vec2::new(80.0, 0.0), Vec2::new(160.0, 0.0), Vec2::new(160.0, 199.0), Vec2::new(80.0, 199.0)];
+        let band = SearchRegion { polygon, band: Some((line, 20.0)), squares: Vec::new() };
+        find_dot_candidates(&view(data, w, h), &band, &DotDetectorParams::default(), 16)
+    }
+
+    /// A dot of 90 levels on a fish whose body stands 40 levels over the water along the
+    /// laser's colour: the body floods into one blob with the dot, centred on the body 13 px
+    /// off the line (tuning target-less 16/15, a dot of 152 levels lost in a fish's 8 900 px
+    /// blob). The dot is found as a spot of its own inside it; without a dot, the body's
+    /// brightest pixel on the line is no spot.
+    #[test]
+    fn a_dot_on_a_bright_fish_is_found_inside_the_fishs_blob() {
+        let truth = Vec2::new(120.4, 104.3);
+        let (data, w, h) = fish_across_the_line(Some((truth, 90.0)));
+        let c = along_line_at_x_120(&data, w, h);
+        let dot = c.iter().find(|c| (c.pixel - truth).norm() < 0.6);
+        let dot = dot.unwrap_or_else(|| panic!("no candidate within 0.6 px of the dot: {c:?}"));
+        assert!(dot.split_from_blob, "split from the fish's blob: {dot:?}");
+        assert!(dot.radius_px < 6.0, "the dot's own size, not the fish's: {dot:?}");
+        let (data, w, h) = fish_across_the_line(None);
+        let c = along_line_at_x_120(&data, w, h);
+        assert!(c.iter().all(|c| !c.split_from_blob), "{c:?}");
     }
 
     /// A board in green water, where the squares' contrast lies along a green laser's
@@ -1885,7 +2054,10 @@ mod tests {
         };
         let dot = look(&squares).expect("against each square's level the dot is found");
         assert!((dot.pixel - truth).norm() < 1.0, "{:?}", dot.pixel);
-        assert!(look(&[]).is_none_or(|c| (c.pixel - truth).norm() > 1.0), "against the disc's mean it was lost");
+        // Against the disc's mean the dot floods into one blob with its square; only a spot
+        // split from that blob ([`peak_inside`]) finds it there.
+        let whole = look(&[]).is_none_or(|c| (c.pixel - truth).norm() > 1.0 || c.split_from_blob);
+        assert!(whole, "against the disc's mean the dot's own blob was lost");
     }
 
     /// A 9 x 6 board of 60 px squares with a near dot on the one white square whose green

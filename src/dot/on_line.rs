@@ -335,7 +335,11 @@ pub fn line_candidates(
             DotDetectorParams { background_radius_px: SENSITIVE_BACKGROUND_PX, ..search.detector.sensitive() };
         let small = band_pieces(&line, 2.0 * near);
         for c in search_pieces(img, &line, &small, near, near + SENSITIVE_BACKGROUND_PX as f64, &detector) {
-            if !found.iter().any(|f| (f.candidate.pixel - c.pixel).norm() < 2.0 * c.radius_px.max(2.0)) {
+            let same = |f: &LineCandidate| (f.candidate.pixel - c.pixel).norm() < 2.0 * c.radius_px.max(2.0);
+            // A spot split from a larger blob is that blob's part: the whole one found in
+            // the second look is the better measure of it.
+            found.retain(|f| !(f.candidate.split_from_blob && !f.plausible() && same(f)));
+            if !found.iter().any(same) {
                 found.extend(judge(c, true));
             }
         }
@@ -518,12 +522,17 @@ fn search_pieces(
         let polygon = vec![a - s - t, b + s - t, b + s + t, a - s + t];
         let region = SearchRegion { polygon, band: Some((line.to_vec(), hw)), squares: Vec::new() };
         for c in find_dot_candidates(img, &region, params, PIECE_CANDIDATES) {
-            // Neighbouring pieces overlap: one blob, one candidate.
-            // A spot split from beside a clipped part lies inside its parent's blob: it is
-            // the same spot only as another piece's split.
+            // Neighbouring pieces overlap: one blob, one candidate. A spot split from a blob
+            // lies inside its parent's blob, so near a whole blob it is the same spot only
+            // when that blob is centred on it (another piece's edge cut the larger blob
+            // away there).
             let same = |f: &DotCandidate| {
-                f.beside_clipped == c.beside_clipped
-                    && (f.pixel - c.pixel).norm() < 2.0 * f.radius_px.max(c.radius_px).max(2.0)
+                let d = (f.pixel - c.pixel).norm();
+                if f.split_from_blob == c.split_from_blob {
+                    d < 2.0 * f.radius_px.max(c.radius_px).max(2.0)
+                } else {
+                    d < 2.0 * f.radius_px.min(c.radius_px).max(2.0)
+                }
             };
             if !found.iter().any(same) {
                 found.push(c);

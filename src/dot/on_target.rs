@@ -104,7 +104,7 @@ pub fn hand_candidate(px: Vec2) -> DotCandidate {
         colour_angle_rad: 0.0,
         colour_angle_sigma_rad: 0.0,
         outline_roughness: None,
-        beside_clipped: false,
+        split_from_blob: false,
         excess_rgb: [0.0; 3],
         colour_filled_in: false,
     }

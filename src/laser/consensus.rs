@@ -281,7 +281,7 @@ mod tests {
             colour_angle_rad: 0.1,
             colour_angle_sigma_rad: 0.02,
             outline_roughness: None,
-            beside_clipped: false,
+            split_from_blob: false,
             excess_rgb: [10.0, 30.0, 10.0],
             colour_filled_in: false,
         }
