@@ -446,38 +446,30 @@ fn peak_inside(maps: &mut RoiMaps, pixels: &[usize], own: u32, id: u32, band: &(
     }
     let peak = peak?;
     maps.label[peak] = id;
-    let mut seeds = vec![peak];
+    // A clipped peak brings its whole clipped part, whose level is its brightest unclipped
+    // neighbour's.
+    let seeds =
+        if maps.saturated[peak] { grow_spot(maps, &[peak], (own, id), f32::INFINITY, usize::MAX)? } else { vec![peak] };
     let level = if maps.saturated[peak] {
-        // The clipped part's own level is its brightest unclipped neighbour's.
-        let mut fringe = 0f32;
-        let mut k = 0;
-        while k < seeds.len() {
-            let i = seeds[k];
-            k += 1;
-            for (x, y) in neighbours8(i % w, i / w, w, h) {
-                let j = y * w + x;
-                if maps.label[j] == own && maps.saturated[j] {
-                    maps.label[j] = id;
-                    seeds.push(j);
-                } else if maps.label[j] == own {
-                    fringe = fringe.max(maps.excess[j]);
-                }
-            }
-        }
-        fringe
+        let fringe = seeds.iter().flat_map(|&i| neighbours8(i % w, i / w, w, h)).map(|(x, y)| y * w + x);
+        fringe.filter(|&j| maps.label[j] == own).map(|j| maps.excess[j]).fold(0f32, f32::max)
     } else {
         maps.excess[peak]
     };
     let is_peak =
         maps.saturated[peak] || neighbours8(peak % w, peak / w, w, h).all(|(x, y)| maps.excess[y * w + x] <= level);
     let most = (PEAK_INSIDE_MAX_SHARE * pixels.len() as f64) as usize;
-    let spot = is_peak.then(|| grow_spot(maps, &seeds, (own, id), 0.5 * level, most)).flatten().or_else(|| {
-        let mut levels: Vec<f32> = pixels.iter().map(|&i| maps.excess[i]).collect();
-        let mid = levels.len() / 2;
-        let base = *levels.select_nth_unstable_by(mid, |a, b| a.total_cmp(b)).1;
-        let cut = base + 0.5 * (level - base);
-        (is_peak && level - base >= maps.threshold).then(|| grow_spot(maps, &seeds, (own, id), cut, most)).flatten()
-    });
+    let spot = if is_peak {
+        grow_spot(maps, &seeds, (own, id), 0.5 * level, most).or_else(|| {
+            let mut levels: Vec<f32> = pixels.iter().map(|&i| maps.excess[i]).collect();
+            let mid = levels.len() / 2;
+            let base = *levels.select_nth_unstable_by(mid, |a, b| a.total_cmp(b)).1;
+            let cut = base + 0.5 * (level - base);
+            (level - base >= maps.threshold).then(|| grow_spot(maps, &seeds, (own, id), cut, most)).flatten()
+        })
+    } else {
+        None
+    };
     match spot {
         Some(spot) if spot.len() >= 2 => Some(spot),
         _ => {
@@ -1822,14 +1814,28 @@ mod tests {
         assert!(c.iter().all(|c| (c.pixel - truth).norm() >= 1.0 && !c.split_from_blob), "{c:?}");
     }
 
-    /// The sensitive search along a vertical laser line at x = 80.4 (a 4 px band) of a
-    /// `w` x `h` image at least 120 px high.
-    fn along_line_at_x_80(data: &[u8], w: usize, h: usize) -> Vec<DotCandidate> {
-        let line = vec![Vec2::new(80.4, 0.0), Vec2::new(80.4, 119.0)];
+    /// The candidates (at most `max`) of a search along a vertical laser line at `x` with
+    /// half-width `half`, over the strip from x `left` to `right` of a `w` x `h` image.
+    fn along_vertical_line(
+        data: &[u8],
+        (w, h): (usize, usize),
+        (x, half): (f64, f64),
+        (left, right): (f64, f64),
+        params: &DotDetectorParams,
+        max: usize,
+    ) -> Vec<DotCandidate> {
+        let bottom = (h - 1) as f64;
+        let line = vec![Vec2::new(x, 0.0), Vec2::new(x, bottom)];
         let polygon =
-            vec![Vec2::new(50.0, 0.0), Vec2::new(110.0, 0.0), Vec2::new(110.0, 119.0), Vec2::new(50.0, 119.0)];
-        let band = SearchRegion { polygon, band: Some((line, 4.0)), squares: Vec::new() };
-        find_dot_candidates(&view(data, w, h), &band, &DotDetectorParams::default().sensitive(), 4)
+            vec![Vec2::new(left, 0.0), Vec2::new(right, 0.0), Vec2::new(right, bottom), Vec2::new(left, bottom)];
+        let band = SearchRegion { polygon, band: Some((line, half)), squares: Vec::new() };
+        find_dot_candidates(&view(data, w, h), &band, params, max)
+    }
+
+    /// The sensitive search along a vertical laser line at x = 80.4 (a 4 px band) of a
+    /// `w` x `h` image.
+    fn along_line_at_x_80(data: &[u8], w: usize, h: usize) -> Vec<DotCandidate> {
+        along_vertical_line(data, (w, h), (80.4, 4.0), (50.0, 110.0), &DotDetectorParams::default().sensitive(), 4)
     }
 
     /// A glint 3 px across on the halo of a dot of 180 levels, 12 px from it, in bright blue
@@ -1891,11 +1897,7 @@ mod tests {
     }
 
     fn along_line_at_x_120(data: &[u8], w: usize, h: usize) -> Vec<DotCandidate> {
-        let line = vec![Vec2::new(120.4, 0.0), Vec2::new(120.4, 199.0)];
-        let polygon =
-            vec![Vec2::new(80.0, 0.0), Vec2::new(160.0, 0.0), Vec2::new(160.0, 199.0), Vec2::new(80.0, 199.0)];
-        let band = SearchRegion { polygon, band: Some((line, 20.0)), squares: Vec::new() };
-        find_dot_candidates(&view(data, w, h), &band, &DotDetectorParams::default(), 16)
+        along_vertical_line(data, (w, h), (120.4, 20.0), (80.0, 160.0), &DotDetectorParams::default(), 16)
     }
 
     /// A dot of 90 levels on a fish whose body stands 40 levels over the water along the
