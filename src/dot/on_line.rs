@@ -106,7 +106,10 @@ const LOOKALIKE_SHARE: f64 = 0.12;
 const UNLIKE_COLOUR_RATIO: f64 = 3.0;
 
 /// Weight of a dot-like blob's signal in the choice between plausible candidates: a
-/// candidate's relative likelihood is `exp(-chi2 / 2) * snr^SNR_POWER`.
+/// candidate's relative likelihood is `exp(-chi2 / 2) * snr^SNR_POWER` times its colour's
+/// (`LineCandidate::colour_likelihood`). With the colour's term, 1.5 and 2.5 changed one
+/// answer each on the tuning target-less seeds 0-17 (one more right; one more wrong and a
+/// phantom).
 const SNR_POWER: f64 = 2.0;
 /// A candidate is the dot when it carries at least this share of the plausible candidates'
 /// weight; below it the photo is ambiguous and withheld.
@@ -157,6 +160,9 @@ pub struct LineCandidate {
     /// Its chroma lies beyond [`UNLIKE_COLOUR_RATIO`] times the off-colour limit: refused or
     /// not for its look, it is no kin of the laser's dot.
     pub unlike_colour: bool,
+    /// Its chroma angle from the unit's learned laser colour in sigmas of the colour's
+    /// spread and the blob's own noise; `None` under the prior.
+    pub colour_sigmas: Option<f64>,
 }
 
 impl LineCandidate {
@@ -165,8 +171,24 @@ impl LineCandidate {
         self.gate.explained() && self.misfit.is_none()
     }
 
-    /// Relative likelihood among the plausible candidates.
+    /// Relative likelihood among the plausible candidates: its place, its signal and its
+    /// colour.
     fn weight(&self) -> f64 {
+        self.look_weight() * self.colour_likelihood()
+    }
+
+    /// How likely the laser's light is to have its chroma (a normal in the angle's
+    /// sigmas); 1 under the prior, which tells no green from another. The off-colour gate
+    /// only refuses beyond 3 sigmas; within them a blob nearer the unit's colour is still
+    /// likelier the dot: a dot clipped white (its chroma barely measured) lost to an
+    /// unclipped tuft 2.8 sigmas off only for the tuft's signal (tuning target-less 6/07).
+    fn colour_likelihood(&self) -> f64 {
+        self.colour_sigmas.map_or(1.0, |z| (-0.5 * z * z).exp())
+    }
+
+    /// Its place and signal alone: what a look-alike refused for its colour or outline is
+    /// weighed by, since its colour has already told against it.
+    fn look_weight(&self) -> f64 {
         (-0.5 * self.gate.chi2).exp() * self.candidate.snr.max(1.0).powf(SNR_POWER)
     }
 
@@ -386,8 +408,10 @@ pub fn judge_candidate(
         misfit(camera, &candidate, gate.depth_m)
             .or_else(|| colour.off_colour(angle, sigma).then_some(Refusal::OffColour))
     };
-    let unlike_colour = colour.off_colour_ratio(angle, sigma).is_some_and(|r| r > UNLIKE_COLOUR_RATIO);
-    Some(LineCandidate { candidate, gate, misfit, sensitive, unlike_colour })
+    let ratio = colour.off_colour_ratio(angle, sigma);
+    let unlike_colour = ratio.is_some_and(|r| r > UNLIKE_COLOUR_RATIO);
+    let colour_sigmas = ratio.map(|r| r * crate::dot::colour::OFF_COLOUR_SIGMAS);
+    Some(LineCandidate { candidate, gate, misfit, sensitive, unlike_colour, colour_sigmas })
 }
 
 /// Nearest depth a blob clipped at its centre is taken at, metres, however far the
@@ -485,7 +509,11 @@ pub fn choose(candidates: &[LineCandidate], band_half_width_px: f64) -> Result<L
         .filter(|c| c.candidate.saturated_core == best.candidate.saturated_core && !c.unlike_colour)
         .collect();
     let total: f64 = plausible.iter().map(|c| c.weight()).sum::<f64>()
-        + LOOKALIKE_SHARE * lookalikes.iter().map(|c| c.weight()).sum::<f64>();
+        // Look-alikes are weighed against the chosen one's look alone (its colour's
+        // likelihood scales both sides): a dot 1.5 sigmas off its unit's colour is no less
+        // clear of a ragged tuft than before colour counted (tuning 1/08 and 7/11 were
+        // withheld when the dot's colour term was set against the tuft's bare look).
+        + LOOKALIKE_SHARE * best.colour_likelihood() * lookalikes.iter().map(|c| c.look_weight()).sum::<f64>();
     let confidence = best.weight() / total;
     if confidence < CLEAR_CONFIDENCE {
         let candidates_px = plausible.iter().map(|c| [c.candidate.pixel.x, c.candidate.pixel.y]).collect();
@@ -634,13 +662,10 @@ mod tests {
         assert_eq!(at(0.42, true), Some(Refusal::OutOfRange));
     }
 
-    /// One plausible blob alone is the dot; beside a look-alike refused for its outline that
-    /// is stronger, it is withheld as ambiguous (a scene that makes dot-like algae on the
-    /// line makes the survivor doubtful); a blob refused for being off the line does not
-    /// count.
-    #[test]
-    fn look_alikes_refused_for_their_look_lower_the_confidence() {
-        let gate = |offset_px: f64| LineGate {
+    /// A blob of signal-to-noise 50 at (x, 100) judged on a line whose gate explains an
+    /// offset of 1 sigma per pixel, under the prior colour.
+    fn blob(x: f64, misfit: Option<Refusal>, offset_px: f64) -> LineCandidate {
+        let gate = LineGate {
             depth_m: 2.0,
             along_laser_m: 2.0,
             offset_px,
@@ -649,13 +674,22 @@ mod tests {
             chi2: offset_px * offset_px,
             implied_turn_rad: 0.0,
         };
-        let blob = |x: f64, misfit: Option<Refusal>, offset_px: f64| LineCandidate {
+        LineCandidate {
             candidate: DotCandidate { snr: 50.0, ..crate::dot::on_target::hand_candidate(Vec2::new(x, 100.0)) },
-            gate: gate(offset_px),
+            gate,
             misfit,
             sensitive: false,
             unlike_colour: false,
-        };
+            colour_sigmas: None,
+        }
+    }
+
+    /// One plausible blob alone is the dot; beside a look-alike refused for its outline that
+    /// is stronger, it is withheld as ambiguous (a scene that makes dot-like algae on the
+    /// line makes the survivor doubtful); a blob refused for being off the line does not
+    /// count.
+    #[test]
+    fn look_alikes_refused_for_their_look_lower_the_confidence() {
         let dot = blob(100.0, None, 0.2);
         let alone = choose(std::slice::from_ref(&dot), 80.0).expect("one plausible blob");
         assert!((alone.confidence - 1.0).abs() < 1e-12);
@@ -690,6 +724,32 @@ mod tests {
         let clipped_tuft =
             LineCandidate { candidate: DotCandidate { saturated_core: true, ..ragged.candidate.clone() }, ..ragged };
         assert!(choose(&[clipped, clipped_tuft], 80.0).is_err(), "a clipped look-alike counts against a clipped dot");
+    }
+
+    /// Under a learned colour, a blob nearer the laser's colour is likelier the dot: a dot
+    /// 0.3 sigmas off is clear of a stronger tuft 2.5 sigmas off that the prior could not
+    /// tell from it. A dot 1.5 sigmas off stays clear of a ragged look-alike it was clear of
+    /// before colour counted, as both are weighed by its look.
+    #[test]
+    fn the_lasers_colour_weighs_in_the_choice() {
+        let dot = blob(100.0, None, 0.2);
+        let tuft = LineCandidate {
+            candidate: DotCandidate { snr: 75.0, ..crate::dot::on_target::hand_candidate(Vec2::new(300.0, 100.0)) },
+            ..blob(300.0, None, 0.2)
+        };
+        assert!(choose(&[dot.clone(), tuft.clone()], 80.0).is_err(), "the prior tells no green from another");
+        let coloured = |c: &LineCandidate, z: f64| LineCandidate { colour_sigmas: Some(z), ..c.clone() };
+        let found = choose(&[coloured(&dot, 0.3), coloured(&tuft, 2.5)], 80.0).expect("the laser's colour chooses");
+        assert_eq!(found.pixel, dot.candidate.pixel);
+        assert!(found.confidence > CLEAR_CONFIDENCE, "{}", found.confidence);
+        // The look-alike's 0.12 * 40^2 = 192 against the dot's 2500 by their looks: 0.93.
+        // Set against the dot's look and colour, 2500 * exp(-1.125) = 812, it would be 0.81.
+        let ragged = LineCandidate {
+            candidate: DotCandidate { snr: 40.0, ..crate::dot::on_target::hand_candidate(Vec2::new(300.0, 100.0)) },
+            ..blob(300.0, Some(Refusal::Ragged), 0.2)
+        };
+        let found = choose(&[coloured(&dot, 1.5), coloured(&ragged, 2.0)], 80.0).expect("clear of the look-alike");
+        assert!((found.confidence - 2500.0 / 2692.0).abs() < 1e-9, "{}", found.confidence);
     }
 
     /// Under a learned colour of 4 degrees' spread, a blob refused 20 degrees off the laser's
