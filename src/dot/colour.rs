@@ -287,15 +287,14 @@ impl LaserColourModel {
     /// measurement noise explain ([`OFF_COLOUR_SIGMAS`] sigmas of both). Only a learned
     /// colour judges: the prior spans every green laser and would refuse none of them.
     pub fn off_colour(&self, angle_rad: f64, angle_sigma_rad: f64) -> bool {
-        self.off_colour_ratio(angle_rad, angle_sigma_rad).is_some_and(|r| r > 1.0)
+        self.angle_sigmas(angle_rad, angle_sigma_rad).is_some_and(|z| z > OFF_COLOUR_SIGMAS)
     }
 
-    /// A blob's chroma angle over the most this laser's spread and the blob's own noise
-    /// explain ([`OFF_COLOUR_SIGMAS`] sigmas of both): over 1 is off-colour. `None` under the
-    /// prior, which judges no blob.
-    pub fn off_colour_ratio(&self, angle_rad: f64, angle_sigma_rad: f64) -> Option<f64> {
-        matches!(self.source, ColourSource::Learned { .. })
-            .then(|| angle_rad / (OFF_COLOUR_SIGMAS * self.spread_rad.hypot(angle_sigma_rad)))
+    /// A blob's chroma angle in sigmas of this laser's spread and the blob's own noise
+    /// together: over [`OFF_COLOUR_SIGMAS`] is off-colour. `None` under the prior, which
+    /// judges no blob.
+    pub fn angle_sigmas(&self, angle_rad: f64, angle_sigma_rad: f64) -> Option<f64> {
+        matches!(self.source, ColourSource::Learned { .. }).then(|| angle_rad / self.spread_rad.hypot(angle_sigma_rad))
     }
 }
 

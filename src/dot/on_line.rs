@@ -15,6 +15,7 @@
 //! looks and which candidate it believes.
 
 use crate::dot::candidates::{find_dot_candidates, ColourView, DotCandidate, DotDetectorParams, SearchRegion};
+use crate::dot::colour::OFF_COLOUR_SIGMAS;
 use crate::dot::on_target::detected_sigma_px;
 use fslcal_core::{CameraModel, LaserLine, LineGate, Vec2};
 
@@ -94,7 +95,7 @@ pub const MAX_OUTLINE_ROUGHNESS: f64 = 0.10;
 /// at 0.05 two more wrong.
 const LOOKALIKE_SHARE: f64 = 0.12;
 
-/// Times the off-colour limit ([`crate::dot::colour::OFF_COLOUR_SIGMAS`] sigmas of the
+/// Times the off-colour limit ([`OFF_COLOUR_SIGMAS`] sigmas of the
 /// unit's spread and the blob's noise) beyond which a blob's chroma makes it no look-alike:
 /// a tuft 30-50 degrees off a laser of 4 degrees' spread is another pigment, and one of its
 /// kind is no likelier to have slipped through the colour test than anything else. On the
@@ -400,17 +401,15 @@ pub fn judge_candidate(
     // The band reaches past the line's ends: a blob there implies a depth outside the search.
     let (near, far) = search.depths_m;
     let near = if candidate.saturated_core { near.min(CLIPPED_NEAR_M) } else { near };
-    let colour = &search.detector.colour;
-    let (angle, sigma) = (candidate.colour_angle_rad, candidate.colour_angle_sigma_rad);
+    let colour_sigmas =
+        search.detector.colour.angle_sigmas(candidate.colour_angle_rad, candidate.colour_angle_sigma_rad);
+    let off_colour = colour_sigmas.is_some_and(|z| z > OFF_COLOUR_SIGMAS);
     let misfit = if gate.depth_m < near || gate.depth_m > far {
         Some(Refusal::OutOfRange)
     } else {
-        misfit(camera, &candidate, gate.depth_m)
-            .or_else(|| colour.off_colour(angle, sigma).then_some(Refusal::OffColour))
+        misfit(camera, &candidate, gate.depth_m).or_else(|| off_colour.then_some(Refusal::OffColour))
     };
-    let ratio = colour.off_colour_ratio(angle, sigma);
-    let unlike_colour = ratio.is_some_and(|r| r > UNLIKE_COLOUR_RATIO);
-    let colour_sigmas = ratio.map(|r| r * crate::dot::colour::OFF_COLOUR_SIGMAS);
+    let unlike_colour = colour_sigmas.is_some_and(|z| z > UNLIKE_COLOUR_RATIO * OFF_COLOUR_SIGMAS);
     Some(LineCandidate { candidate, gate, misfit, sensitive, unlike_colour, colour_sigmas })
 }
 
