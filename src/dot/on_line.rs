@@ -158,9 +158,6 @@ pub struct LineCandidate {
     pub misfit: Option<Refusal>,
     /// Found by the second, more sensitive look.
     pub sensitive: bool,
-    /// Its chroma lies beyond [`UNLIKE_COLOUR_RATIO`] times the off-colour limit: refused or
-    /// not for its look, it is no kin of the laser's dot.
-    pub unlike_colour: bool,
     /// Its chroma angle from the unit's learned laser colour in sigmas of the colour's
     /// spread and the blob's own noise; `None` under the prior.
     pub colour_sigmas: Option<f64>,
@@ -170,6 +167,12 @@ impl LineCandidate {
     /// Could be the dot of the calibrated laser.
     pub fn plausible(&self) -> bool {
         self.gate.explained() && self.misfit.is_none()
+    }
+
+    /// Its chroma lies beyond [`UNLIKE_COLOUR_RATIO`] times the off-colour limit: refused or
+    /// not for its look, it is no kin of the laser's dot.
+    pub fn unlike_colour(&self) -> bool {
+        self.colour_sigmas.is_some_and(|z| z > UNLIKE_COLOUR_RATIO * OFF_COLOUR_SIGMAS)
     }
 
     /// Relative likelihood among the plausible candidates: its place, its signal and its
@@ -409,8 +412,7 @@ pub fn judge_candidate(
     } else {
         misfit(camera, &candidate, gate.depth_m).or_else(|| off_colour.then_some(Refusal::OffColour))
     };
-    let unlike_colour = colour_sigmas.is_some_and(|z| z > UNLIKE_COLOUR_RATIO * OFF_COLOUR_SIGMAS);
-    Some(LineCandidate { candidate, gate, misfit, sensitive, unlike_colour, colour_sigmas })
+    Some(LineCandidate { candidate, gate, misfit, sensitive, colour_sigmas })
 }
 
 /// Nearest depth a blob clipped at its centre is taken at, metres, however far the
@@ -505,7 +507,7 @@ pub fn choose(candidates: &[LineCandidate], band_half_width_px: f64) -> Result<L
     let lookalikes: Vec<&LineCandidate> = candidates
         .iter()
         .filter(|c| c.gate.explained() && matches!(c.misfit, Some(Refusal::Ragged | Refusal::OffColour)))
-        .filter(|c| c.candidate.saturated_core == best.candidate.saturated_core && !c.unlike_colour)
+        .filter(|c| c.candidate.saturated_core == best.candidate.saturated_core && !c.unlike_colour())
         .collect();
     let total: f64 = plausible.iter().map(|c| c.weight()).sum::<f64>()
         // Look-alikes are weighed against the chosen one's look alone (its colour's
@@ -678,7 +680,6 @@ mod tests {
             gate,
             misfit,
             sensitive: false,
-            unlike_colour: false,
             colour_sigmas: None,
         }
     }
@@ -776,12 +777,12 @@ mod tests {
             judge_candidate(&camera, &laser, &search, c, false).expect("on the line")
         };
         let dot = at(2.0, 2.0, 50.0);
-        assert!(dot.plausible() && !dot.unlike_colour, "{dot:?}");
+        assert!(dot.plausible() && !dot.unlike_colour(), "{dot:?}");
         let kin = at(1.2, 20.0, 200.0);
-        assert_eq!((kin.misfit, kin.unlike_colour), (Some(Refusal::OffColour), false));
+        assert_eq!((kin.misfit, kin.unlike_colour()), (Some(Refusal::OffColour), false));
         assert!(matches!(choose(&[dot.clone(), kin], 80.0), Err(DotOnLineError::Ambiguous { lookalikes: 1, .. })));
         let unlike = at(1.2, 40.0, 200.0);
-        assert_eq!((unlike.misfit, unlike.unlike_colour), (Some(Refusal::OffColour), true));
+        assert_eq!((unlike.misfit, unlike.unlike_colour()), (Some(Refusal::OffColour), true));
         let found = choose(&[dot.clone(), unlike], 80.0).expect("a pigment far off the laser's colour");
         assert_eq!(found.pixel, dot.candidate.pixel);
     }
