@@ -196,6 +196,18 @@ impl LineCandidate {
         (-0.5 * self.gate.chi2).exp() * self.candidate.snr.max(1.0).powf(SNR_POWER)
     }
 
+    /// What a look-alike (refused for its colour or outline) counts against the chosen dot:
+    /// its look, less as its chroma lies further beyond the off-colour gate. A blob just
+    /// beyond the gate may be the dot mis-measured (a clipped fringe, a coloured surface); one
+    /// at twice the limit is less likely to be, though no Gaussian tail would give it any
+    /// chance: the falloff is the square of the limit over its sigmas. On the tuning
+    /// target-less seeds 0-17 it found one withheld dot (13/11) and changed nothing else; at
+    /// the fourth power it also took a tuft on a laser-off photo (3/15) and a wrong dot (5/06).
+    fn lookalike_weight(&self) -> f64 {
+        let beyond = self.colour_sigmas.map_or(1.0, |z| (OFF_COLOUR_SIGMAS / z).min(1.0));
+        self.look_weight() * beyond * beyond
+    }
+
     /// Why it cannot be the dot; `None` when plausible.
     pub fn refusal(&self) -> Option<Refusal> {
         if !self.gate.explained() {
@@ -514,7 +526,7 @@ pub fn choose(candidates: &[LineCandidate], band_half_width_px: f64) -> Result<L
         // likelihood scales both sides): a dot 1.5 sigmas off its unit's colour is no less
         // clear of a ragged tuft than before colour counted (tuning 1/08 and 7/11 were
         // withheld when the dot's colour term was set against the tuft's bare look).
-        + LOOKALIKE_SHARE * best.colour_likelihood() * lookalikes.iter().map(|c| c.look_weight()).sum::<f64>();
+        + LOOKALIKE_SHARE * best.colour_likelihood() * lookalikes.iter().map(|c| c.lookalike_weight()).sum::<f64>();
     let confidence = best.weight() / total;
     if confidence < CLEAR_CONFIDENCE {
         let candidates_px = plausible.iter().map(|c| [c.candidate.pixel.x, c.candidate.pixel.y]).collect();
@@ -750,6 +762,27 @@ mod tests {
         };
         let found = choose(&[coloured(&dot, 1.5), coloured(&ragged, 2.0)], 80.0).expect("clear of the look-alike");
         assert!((found.confidence - 2500.0 / 2692.0).abs() < 1e-9, "{}", found.confidence);
+    }
+
+    /// A look-alike counts less the further its chroma lies beyond the off-colour gate: a
+    /// tuft 3 sigmas off the laser's colour, stronger than the dot, withholds it (0.12 of
+    /// 60^2 = 432 against 2500: 0.85); the same tuft 6 sigmas off counts a quarter of that
+    /// (0.96).
+    #[test]
+    fn a_look_alike_counts_less_the_further_off_the_lasers_colour() {
+        let dot = LineCandidate { colour_sigmas: Some(0.0), ..blob(100.0, None, 0.0) };
+        let tuft = |z: f64| LineCandidate {
+            candidate: DotCandidate { snr: 60.0, ..crate::dot::on_target::hand_candidate(Vec2::new(300.0, 100.0)) },
+            colour_sigmas: Some(z),
+            ..blob(300.0, Some(Refusal::OffColour), 0.0)
+        };
+        assert!(matches!(
+            choose(&[dot.clone(), tuft(OFF_COLOUR_SIGMAS)], 80.0),
+            Err(DotOnLineError::Ambiguous { lookalikes: 1, .. })
+        ));
+        let found = choose(&[dot.clone(), tuft(2.0 * OFF_COLOUR_SIGMAS)], 80.0).expect("clear of a far-off tuft");
+        assert_eq!(found.pixel, dot.candidate.pixel);
+        assert!((found.confidence - 2500.0 / 2608.0).abs() < 1e-9, "{}", found.confidence);
     }
 
     /// Under a learned colour of 4 degrees' spread, a blob refused 20 degrees off the laser's
