@@ -117,9 +117,8 @@ const SNR_POWER: f64 = 2.0;
 /// the surface around it does not; a near or bright dot often does. Of the plausible blobs on
 /// the line in the tuning and held-out target-less photos, 310 of 652 true dots clipped at
 /// their centre, and 8 of 160 others (3 algae tufts, 3 glints, a bubble, a speck): odds of
-/// about 17.
-/// At 4, on the tuning seeds 0-17 a wrong dot (15/18, a tuft beside a clipped dot) was
-/// withheld instead, and nothing else changed; at 16 a clipped glint was taken for an
+/// about 17. At 4, on the tuning seeds 0-17 a wrong dot (15/18, a tuft beside a clipped dot)
+/// was withheld instead, and nothing else changed; at 16 a clipped glint was taken for an
 /// unclipped dot (7/17). Look-alikes are counted only of the chosen blob's kind, so the
 /// factor weighs on both sides of its confidence alike.
 const CLIPPED_ODDS: f64 = 4.0;
@@ -708,6 +707,11 @@ mod tests {
         }
     }
 
+    /// `c` with signal-to-noise `snr`.
+    fn with_snr(c: LineCandidate, snr: f64) -> LineCandidate {
+        LineCandidate { candidate: DotCandidate { snr, ..c.candidate }, ..c }
+    }
+
     /// One plausible blob alone is the dot; beside a look-alike refused for its outline that
     /// is stronger, it is withheld as ambiguous (a scene that makes dot-like algae on the
     /// line makes the survivor doubtful); a blob refused for being off the line does not
@@ -718,10 +722,7 @@ mod tests {
         let alone = choose(std::slice::from_ref(&dot), 80.0).expect("one plausible blob");
         assert!((alone.confidence - 1.0).abs() < 1e-12);
         // A tuft half again as strong as the dot, refused for its outline.
-        let ragged = LineCandidate {
-            candidate: DotCandidate { snr: 75.0, ..crate::dot::on_target::hand_candidate(Vec2::new(300.0, 100.0)) },
-            ..blob(300.0, Some(Refusal::Ragged), 0.2)
-        };
+        let ragged = with_snr(blob(300.0, Some(Refusal::Ragged), 0.2), 75.0);
         let e = choose(&[dot.clone(), ragged.clone()], 80.0).unwrap_err();
         assert!(
             matches!(e, DotOnLineError::Ambiguous { ref candidates_px, lookalikes: 1 } if candidates_px.len() == 1),
@@ -735,8 +736,7 @@ mod tests {
         let off_line = blob(300.0, Some(Refusal::Ragged), 10.0);
         assert!(choose(&[dot.clone(), off_line], 80.0).is_ok());
         // A look-alike much fainter than the dot leaves it clear.
-        let faint =
-            LineCandidate { candidate: DotCandidate { snr: 5.0, ..ragged.candidate.clone() }, ..ragged.clone() };
+        let faint = with_snr(ragged.clone(), 5.0);
         let found = choose(&[dot.clone(), faint], 80.0).expect("clear of a faint look-alike");
         assert!(found.confidence > CLEAR_CONFIDENCE, "{}", found.confidence);
         // A dot clipped at its centre is no kin of an unclipped tuft, however ragged: the tuft
@@ -757,10 +757,7 @@ mod tests {
     #[test]
     fn the_lasers_colour_weighs_in_the_choice() {
         let dot = blob(100.0, None, 0.2);
-        let tuft = LineCandidate {
-            candidate: DotCandidate { snr: 75.0, ..crate::dot::on_target::hand_candidate(Vec2::new(300.0, 100.0)) },
-            ..blob(300.0, None, 0.2)
-        };
+        let tuft = with_snr(blob(300.0, None, 0.2), 75.0);
         assert!(choose(&[dot.clone(), tuft.clone()], 80.0).is_err(), "the prior tells no green from another");
         let coloured = |c: &LineCandidate, z: f64| LineCandidate { colour_sigmas: Some(z), ..c.clone() };
         let found = choose(&[coloured(&dot, 0.3), coloured(&tuft, 2.5)], 80.0).expect("the laser's colour chooses");
@@ -768,10 +765,7 @@ mod tests {
         assert!(found.confidence > CLEAR_CONFIDENCE, "{}", found.confidence);
         // The look-alike's 0.12 * 40^2 = 192 against the dot's 2500 by their looks: 0.93.
         // Set against the dot's look and colour, 2500 * exp(-1.125) = 812, it would be 0.81.
-        let ragged = LineCandidate {
-            candidate: DotCandidate { snr: 40.0, ..crate::dot::on_target::hand_candidate(Vec2::new(300.0, 100.0)) },
-            ..blob(300.0, Some(Refusal::Ragged), 0.2)
-        };
+        let ragged = with_snr(blob(300.0, Some(Refusal::Ragged), 0.2), 40.0);
         let found = choose(&[coloured(&dot, 1.5), coloured(&ragged, 2.0)], 80.0).expect("clear of the look-alike");
         assert!((found.confidence - 2500.0 / 2692.0).abs() < 1e-9, "{}", found.confidence);
     }
@@ -782,10 +776,7 @@ mod tests {
     #[test]
     fn a_blob_clipped_at_its_centre_is_likelier_the_dot() {
         let dot = blob(100.0, None, 0.0);
-        let tuft = LineCandidate {
-            candidate: DotCandidate { snr: 30.0, ..crate::dot::on_target::hand_candidate(Vec2::new(300.0, 100.0)) },
-            ..blob(300.0, None, 0.0)
-        };
+        let tuft = with_snr(blob(300.0, None, 0.0), 30.0);
         assert!(matches!(choose(&[dot.clone(), tuft.clone()], 80.0), Err(DotOnLineError::Ambiguous { .. })));
         let clipped =
             LineCandidate { candidate: DotCandidate { saturated_core: true, ..dot.candidate.clone() }, ..dot };
@@ -802,9 +793,8 @@ mod tests {
     fn a_look_alike_counts_less_the_further_off_the_lasers_colour() {
         let dot = LineCandidate { colour_sigmas: Some(0.0), ..blob(100.0, None, 0.0) };
         let tuft = |z: f64| LineCandidate {
-            candidate: DotCandidate { snr: 60.0, ..crate::dot::on_target::hand_candidate(Vec2::new(300.0, 100.0)) },
             colour_sigmas: Some(z),
-            ..blob(300.0, Some(Refusal::OffColour), 0.0)
+            ..with_snr(blob(300.0, Some(Refusal::OffColour), 0.0), 60.0)
         };
         assert!(matches!(
             choose(&[dot.clone(), tuft(OFF_COLOUR_SIGMAS)], 80.0),
