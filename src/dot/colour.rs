@@ -287,7 +287,7 @@ impl LaserColourModel {
     /// measurement noise explain ([`OFF_COLOUR_SIGMAS`] sigmas of both). Only a learned
     /// colour judges: the prior spans every green laser and would refuse none of them.
     pub fn off_colour(&self, angle_rad: f64, angle_sigma_rad: f64) -> bool {
-        self.angle_sigmas(angle_rad, angle_sigma_rad).is_some_and(|z| z > OFF_COLOUR_SIGMAS)
+        beyond_colour_gate(self.angle_sigmas(angle_rad, angle_sigma_rad))
     }
 
     /// A blob's chroma angle in sigmas of this laser's spread and the blob's own noise
@@ -321,6 +321,12 @@ pub struct MeasuredColour {
 /// true dots' blobs on the line that pass size and outline lie beyond 3 sigmas, and 12 of
 /// 25 algae tufts.
 pub const OFF_COLOUR_SIGMAS: f64 = 3.0;
+
+/// Whether a chroma angle of `sigmas` ([`LaserColourModel::angle_sigmas`]) is off the
+/// laser's colour: beyond [`OFF_COLOUR_SIGMAS`]; never under the prior (`None`).
+pub fn beyond_colour_gate(sigmas: Option<f64>) -> bool {
+    sigmas.is_some_and(|z| z > OFF_COLOUR_SIGMAS)
+}
 
 /// Passes of down-weighting dots far from the others' colour while learning it.
 const ROBUST_PASSES: usize = 4;

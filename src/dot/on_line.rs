@@ -15,7 +15,7 @@
 //! looks and which candidate it believes.
 
 use crate::dot::candidates::{find_dot_candidates, ColourView, DotCandidate, DotDetectorParams, SearchRegion};
-use crate::dot::colour::OFF_COLOUR_SIGMAS;
+use crate::dot::colour::{beyond_colour_gate, OFF_COLOUR_SIGMAS};
 use crate::dot::on_target::detected_sigma_px;
 use fslcal_core::{CameraModel, LaserLine, LineGate, Vec2};
 
@@ -429,7 +429,7 @@ pub fn judge_candidate(
     let near = if candidate.saturated_core { near.min(CLIPPED_NEAR_M) } else { near };
     let colour_sigmas =
         search.detector.colour.angle_sigmas(candidate.colour_angle_rad, candidate.colour_angle_sigma_rad);
-    let off_colour = colour_sigmas.is_some_and(|z| z > OFF_COLOUR_SIGMAS);
+    let off_colour = beyond_colour_gate(colour_sigmas);
     let misfit = if gate.depth_m < near || gate.depth_m > far {
         Some(Refusal::OutOfRange)
     } else {
