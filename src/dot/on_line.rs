@@ -712,6 +712,11 @@ mod tests {
         LineCandidate { candidate: DotCandidate { snr, ..c.candidate }, ..c }
     }
 
+    /// `c` clipped at its centre.
+    fn clipped(c: LineCandidate) -> LineCandidate {
+        LineCandidate { candidate: DotCandidate { saturated_core: true, ..c.candidate }, ..c }
+    }
+
     /// One plausible blob alone is the dot; beside a look-alike refused for its outline that
     /// is stronger, it is withheld as ambiguous (a scene that makes dot-like algae on the
     /// line makes the survivor doubtful); a blob refused for being off the line does not
@@ -741,13 +746,15 @@ mod tests {
         assert!(found.confidence > CLEAR_CONFIDENCE, "{}", found.confidence);
         // A dot clipped at its centre is no kin of an unclipped tuft, however ragged: the tuft
         // still counts against an unclipped dot, not against a clipped one.
-        let clipped =
-            LineCandidate { candidate: DotCandidate { saturated_core: true, ..dot.candidate.clone() }, ..dot };
-        let found = choose(&[clipped.clone(), ragged.clone()], 80.0).expect("a clipped dot beside an unclipped tuft");
-        assert_eq!(found.pixel, clipped.candidate.pixel);
-        let clipped_tuft =
-            LineCandidate { candidate: DotCandidate { saturated_core: true, ..ragged.candidate.clone() }, ..ragged };
-        assert!(choose(&[clipped, clipped_tuft], 80.0).is_err(), "a clipped look-alike counts against a clipped dot");
+        let clipped_dot = clipped(dot);
+        let found =
+            choose(&[clipped_dot.clone(), ragged.clone()], 80.0).expect("a clipped dot beside an unclipped tuft");
+        assert_eq!(found.pixel, clipped_dot.candidate.pixel);
+        let clipped_tuft = clipped(ragged);
+        assert!(
+            choose(&[clipped_dot, clipped_tuft], 80.0).is_err(),
+            "a clipped look-alike counts against a clipped dot"
+        );
     }
 
     /// Under a learned colour, a blob nearer the laser's colour is likelier the dot: a dot
@@ -778,10 +785,9 @@ mod tests {
         let dot = blob(100.0, None, 0.0);
         let tuft = with_snr(blob(300.0, None, 0.0), 30.0);
         assert!(matches!(choose(&[dot.clone(), tuft.clone()], 80.0), Err(DotOnLineError::Ambiguous { .. })));
-        let clipped =
-            LineCandidate { candidate: DotCandidate { saturated_core: true, ..dot.candidate.clone() }, ..dot };
-        let found = choose(&[clipped.clone(), tuft], 80.0).expect("a clipped dot beside an unclipped tuft");
-        assert_eq!(found.pixel, clipped.candidate.pixel);
+        let clipped_dot = clipped(dot);
+        let found = choose(&[clipped_dot.clone(), tuft], 80.0).expect("a clipped dot beside an unclipped tuft");
+        assert_eq!(found.pixel, clipped_dot.candidate.pixel);
         assert!((found.confidence - 10_000.0 / 10_900.0).abs() < 1e-9, "{}", found.confidence);
     }
 
