@@ -397,19 +397,35 @@ pub fn line_candidates(
     Ok(found)
 }
 
-/// The line split into pieces about `piece_px` long: the detector's region of interest is
-/// the bounding box of its polygon, and a diagonal line's box is mostly empty.
+/// The line split into pieces about `piece_px` long, each running near to far, nearest
+/// first: the detector's region of interest is the bounding box of its polygon, and a
+/// diagonal line's box is mostly empty. The cuts are measured from the far end, where every
+/// search's line ends: a search reaching nearer adds pieces at the near end and moves no
+/// cut, and a blob near a cut (measured against its piece's background and noise) is
+/// measured alike. A near remainder shorter than half a piece joins the piece beside it: its
+/// own box, padded all round, cost nearly as much as a whole piece's.
 fn band_pieces(line: &[Vec2], piece_px: f64) -> Vec<Vec<Vec2>> {
-    let mut pieces: Vec<Vec<Vec2>> = vec![vec![line[0]]];
+    let Some(&far) = line.last() else { return Vec::new() };
+    // Walked from the far end; reversed at the end.
+    let mut pieces: Vec<Vec<Vec2>> = vec![vec![far]];
     let mut run = 0.0;
-    for w in line.windows(2) {
-        run += (w[1] - w[0]).norm();
-        pieces.last_mut().expect("starts with one piece").push(w[1]);
-        if run >= piece_px {
-            pieces.push(vec![w[1]]);
-            run = 0.0;
+    for w in line.windows(2).rev() {
+        let (mut from, to) = (w[1], w[0]);
+        while run + (to - from).norm() > piece_px {
+            let cut = from + (to - from).normalize() * (piece_px - run);
+            pieces.last_mut().expect("starts with one piece").push(cut);
+            pieces.push(vec![cut]);
+            (from, run) = (cut, 0.0);
         }
+        run += (to - from).norm();
+        pieces.last_mut().expect("starts with one piece").push(to);
     }
+    if pieces.len() > 1 && run < 0.5 * piece_px {
+        let rest = pieces.pop().expect("more than one piece");
+        pieces.last_mut().expect("more than one piece").extend_from_slice(&rest[1..]);
+    }
+    pieces.reverse();
+    pieces.iter_mut().for_each(|p| p.reverse());
     pieces
 }
 
@@ -616,6 +632,44 @@ mod tests {
     /// against the widest beam there, a clipped one may bloom to 1.85x the widest unclipped
     /// blob, and to 3.5x when its own channel clips a dot's width beyond its white core,
     /// never further; a wide blob at the threshold with a narrow core is a dot.
+    #[test]
+    fn band_pieces_are_cut_from_the_far_end_and_a_short_near_rest_joins_its_neighbour() {
+        // A straight line 1 000 px long, sampled unevenly as the log-spaced line is.
+        let line = |from: f64| -> Vec<Vec2> {
+            let mut xs: Vec<f64> = (0..=40).map(|i| 1000.0 - 1000.0 * (i as f64 / 40.0).powi(2)).collect();
+            xs.retain(|&x| x >= from);
+            xs.reverse();
+            xs.into_iter().map(|x| Vec2::new(x, 0.5 * x)).collect()
+        };
+        let ends = |l: &[Vec2]| -> Vec<(f64, f64)> {
+            band_pieces(l, 250.0).iter().map(|p| (p[0].x, p[p.len() - 1].x)).collect()
+        };
+        let len = 1000.0 * 1.25f64.sqrt();
+        // 1 118 px: three pieces of 250 px from the far end, and the near 368 px as one.
+        let whole = ends(&line(0.0));
+        assert_eq!(whole.len(), 4, "{whole:?}");
+        let step = 250.0 / 1.25f64.sqrt();
+        for (k, &(a, b)) in whole.iter().rev().enumerate() {
+            assert!((b - (1000.0 - k as f64 * step)).abs() < 1e-9, "{k}: {whole:?}");
+            if k < 3 {
+                assert!((a - (1000.0 - (k + 1) as f64 * step)).abs() < 1e-9, "{k}: {whole:?}");
+            }
+        }
+        assert!(whole[0].0 == 0.0, "{whole:?}");
+        // Begun at its sample x = 437.5, 629 px from the far end, the line keeps its far
+        // cuts: two pieces of 250 px and a near one of 129 px, over half a piece.
+        let short = ends(&line(400.0));
+        assert_eq!(short.len(), 3, "{short:?}");
+        for (s, w) in short.iter().rev().zip(whole.iter().rev()).take(2) {
+            assert!((s.0 - w.0).abs() < 1e-9 && (s.1 - w.1).abs() < 1e-9, "{short:?} {whole:?}");
+        }
+        // Every piece runs near to far, and together they cover the line once.
+        let pieces = band_pieces(&line(0.0), 250.0);
+        let total: f64 = pieces.iter().flat_map(|p| p.windows(2).map(|w| (w[1] - w[0]).norm())).sum();
+        assert!((total - len).abs() < 1e-6, "{total} {len}");
+        assert!(pieces.iter().all(|p| p.windows(2).all(|w| w[1].x >= w[0].x)));
+    }
+
     #[test]
     fn a_dots_core_must_fit_its_distance_and_a_clipped_one_blooms_only_so_far() {
         let camera = tg6_camera();
