@@ -1716,22 +1716,30 @@ mod tests {
     /// the core, on the hollow's floor, 0.02.
     #[test]
     fn a_dot_in_a_shaded_hollow_is_read_against_the_surface_right_around_it() {
+        let (dot, true_angle, p) = dot_in_a_hollow((35.0, 2.0), (25.0, 12.0));
+        let ring_angle = p.colour.angle_rad(dot.excess_rgb);
+        assert!(ring_angle - true_angle > 0.15, "the ring's hue: {ring_angle} against {true_angle}");
+        assert!((dot.colour_angle_rad - true_angle).abs() < 0.04, "{} against {true_angle}", dot.colour_angle_rad);
+    }
+
+    /// The candidate the default detector finds for a dot of a laser (0.2, 1.0, 0.3) of
+    /// `(peak, sigma)` in a hollow of reef of `(depth, sigma)` that darkens towards it in
+    /// green and blue (the water's cast), with the laser's hue angle and the detector.
+    fn dot_in_a_hollow(dot: (f64, f64), hollow: (f64, f64)) -> (DotCandidate, f64, DotDetectorParams) {
         let (w, h) = (200usize, 150usize);
         let truth = Vec2::new(100.4, 74.7);
         let laser = [0.2, 1.0, 0.3];
         let data = paint(w, h, |x, y| {
-            let dot = spot(x, y, truth, 35.0, 2.0);
-            let hollow = spot(x, y, truth, 25.0, 12.0);
+            let d = spot(x, y, truth, dot.0, dot.1);
+            let under = spot(x, y, truth, hollow.0, hollow.1);
             let noise = grain(x, y);
-            let [r, g, b] = [30.0, 120.0 - 0.5 * hollow, 140.0 - hollow];
-            [r + laser[0] * dot + noise, g + laser[1] * dot + noise, b + laser[2] * dot + noise]
+            let [r, g, b] = [30.0, 120.0 - 0.5 * under, 140.0 - under];
+            [r + laser[0] * d + noise, g + laser[1] * d + noise, b + laser[2] * d + noise]
         });
         let p = DotDetectorParams::default();
-        let dot = candidate_at(&data, (w, h), truth, &p);
+        let found = candidate_at(&data, (w, h), truth, &p);
         let true_angle = p.colour.angle_rad(laser);
-        let ring_angle = p.colour.angle_rad(dot.excess_rgb);
-        assert!(ring_angle - true_angle > 0.15, "the ring's hue: {ring_angle} against {true_angle}");
-        assert!((dot.colour_angle_rad - true_angle).abs() < 0.04, "{} against {true_angle}", dot.colour_angle_rad);
+        (found, true_angle, p)
     }
 
     /// A wider hollow under a dot bright enough that 7 pixels of its 109 px core clip: a core
@@ -1741,21 +1749,9 @@ mod tests {
     /// against the ring beyond its halo, it was 0.17 off.
     #[test]
     fn a_dot_whose_core_barely_clips_is_read_against_the_surface_right_around_it() {
-        let (w, h) = (200usize, 150usize);
-        let truth = Vec2::new(100.4, 74.7);
-        let laser = [0.2, 1.0, 0.3];
-        let data = paint(w, h, |x, y| {
-            let dot = spot(x, y, truth, 166.0, 5.0);
-            let hollow = spot(x, y, truth, 60.0, 25.0);
-            let noise = grain(x, y);
-            let [r, g, b] = [30.0, 120.0 - 0.5 * hollow, 140.0 - hollow];
-            [r + laser[0] * dot + noise, g + laser[1] * dot + noise, b + laser[2] * dot + noise]
-        });
-        let p = DotDetectorParams::default();
-        let dot = candidate_at(&data, (w, h), truth, &p);
+        let (dot, true_angle, _) = dot_in_a_hollow((166.0, 5.0), (60.0, 25.0));
         let core_px = (core::f64::consts::PI * dot.core_radius_px.powi(2)).round() as usize;
         assert!(dot.saturated_px >= 1 && 10 * dot.saturated_px < core_px, "{dot:?}");
-        let true_angle = p.colour.angle_rad(laser);
         assert!((dot.colour_angle_rad - true_angle).abs() < 0.07, "{} against {true_angle}", dot.colour_angle_rad);
     }
 
