@@ -213,11 +213,12 @@ impl LaserColourModel {
     }
 
     /// The colour learned from accepted dots: their chroma directions averaged, each
-    /// weighted by how well its colour was measured (`1 / (sigma^2 + MIN_SPREAD^2)`, so a
-    /// faint dot whose chroma noise alone is tens of degrees counts little and bright dots
-    /// count alike, near ones not outweighing far ones) and down-weighted by its angle from
-    /// the others' ([`ROBUST_SCALE`]); and the laser's own spread, from the weighted median
-    /// of the angles less what the measurement noise explains. One mismeasured dot among six
+    /// weighted by how well its colour was measured (`1 / (sigma^2 + floor^2)`, with the
+    /// floor [`COLOUR_WEIGHT_FLOOR_RAD`]: a faint dot whose chroma noise alone is tens of
+    /// degrees counts little, and no dot outweighs another for its low noise alone) and
+    /// down-weighted by its angle from the others' ([`ROBUST_SCALE`]); and the laser's own
+    /// spread, from the median of the angles (with the same weights) less what the
+    /// measurement noise explains. One mismeasured dot among six
     /// must not set the tolerance: on the tuning target-less sets the root-mean-square
     /// spread of 5-7 dots was 8-19 degrees where the laser's dots lay within 4-6 of their
     /// median, and every algae tuft of that hue passed. Dots whose colour was filled in
@@ -245,18 +246,21 @@ impl LaserColourModel {
         if dirs.len() < 3 {
             return None;
         }
-        let weight = |sigma: f64| 1.0 / (sigma * sigma + MIN_SPREAD_RAD * MIN_SPREAD_RAD);
-        let weights: Vec<f64> = dirs.iter().map(|(_, s)| weight(*s)).collect();
+        let weight = |sigma: f64, floor: f64| 1.0 / (sigma * sigma + floor * floor);
+        // What each dot knows of the mean (its noise), and what it says of the colour (its
+        // noise, but no dot's above a background's error: [`COLOUR_WEIGHT_FLOOR_RAD`]).
+        let weights: Vec<f64> = dirs.iter().map(|(_, s)| weight(*s, MIN_SPREAD_RAD)).collect();
+        let say: Vec<f64> = dirs.iter().map(|(_, s)| weight(*s, COLOUR_WEIGHT_FLOOR_RAD)).collect();
         let angles_to =
             |mean: [f64; 3]| -> Vec<f64> { dirs.iter().map(|(d, _)| dot(*d, mean).clamp(-1.0, 1.0).acos()).collect() };
         // Each dot's weight, down-weighted by its angle from the mean over the dots' scale.
-        let robust_weights = |angles: &[f64]| -> Vec<f64> {
-            let s = (ROBUST_SCALE * weighted_median(angles, &weights)).max(MIN_SPREAD_RAD);
+        let robust_with = |angles: &[f64], weights: &[f64]| -> Vec<f64> {
+            let s = (ROBUST_SCALE * weighted_median(angles, weights)).max(MIN_SPREAD_RAD);
             weights.iter().zip(angles).map(|(w, a)| w / (1.0 + (a / s).powi(2))).collect()
         };
-        let mut mean_dir = unit(dirs.iter().zip(&weights).fold([0.0; 3], |acc, ((d, _), w)| add(acc, scale(*d, *w))));
+        let mut mean_dir = unit(dirs.iter().zip(&say).fold([0.0; 3], |acc, ((d, _), w)| add(acc, scale(*d, *w))));
         for _ in 0..ROBUST_PASSES {
-            let robust = robust_weights(&angles_to(mean_dir));
+            let robust = robust_with(&angles_to(mean_dir), &say);
             mean_dir = unit(dirs.iter().zip(&robust).fold([0.0; 3], |acc, ((d, _), w)| add(acc, scale(*d, *w))));
         }
         // The stored direction keeps the dots' mean white part, as the file describes the
@@ -267,13 +271,13 @@ impl LaserColourModel {
         let angles = angles_to(mean_dir);
         let beyond_noise: Vec<f64> =
             angles.iter().zip(&dirs).map(|(a, (_, s))| (a * a - s * s).max(0.0).sqrt()).collect();
-        let spread = RMS_PER_MEDIAN_ANGLE * weighted_median(&beyond_noise, &weights);
+        let spread = RMS_PER_MEDIAN_ANGLE * weighted_median(&beyond_noise, &say);
         if spread > 2.0 * PRIOR_SPREAD_RAD || !rgb.iter().all(|v| v.is_finite()) {
             return None;
         }
         // The mean's own uncertainty, from the weights the robust passes give the dots at
         // the final mean: a tolerance of the dots' scatter alone is as if the mean were exact.
-        let information: f64 = robust_weights(&angles).iter().sum();
+        let information: f64 = robust_with(&angles, &weights).iter().sum();
         let mean_sigma = information.max(1e-12).recip().sqrt();
         let count = dirs.len().min(u16::MAX as usize) as u16;
         Some(LaserColourModel::new(
@@ -327,6 +331,23 @@ pub const OFF_COLOUR_SIGMAS: f64 = 3.0;
 pub fn beyond_colour_gate(sigmas: Option<f64>) -> bool {
     sigmas.is_some_and(|z| z > OFF_COLOUR_SIGMAS)
 }
+
+/// Least chroma uncertainty a dot's weight in a learned colour assumes, radians (14
+/// degrees): the error a dot's background can put in its chroma beyond its pixels' noise. A
+/// faint unclipped dot's chroma noise is small (1.2 degrees for 26 levels of green over
+/// 100-odd pixels), yet a one-level error in its background turns it 10-20 degrees, as far
+/// as a clipped dot's truncated fringe (14.3 degrees, [`MeasuredColour::angle_sigma_rad`]).
+/// With the floor at the spread's 0.06 rad two such dots on a board (3, 7, 1 and 7, 26, 3
+/// levels) outweighed four clipped ones 16 to 1 and set held-out unit 1000067's colour 17.5
+/// degrees off its laser's, and its dots on fish were refused as off-colour. Replayed on
+/// each unit's learned dots, 0.15 and 0.25 rad brought the worst of 30 held-out units from
+/// 17.5 degrees to 13.1 and 9.7, the tuning units' worst from 3.9 to 2.7 and 2.5. At 0.25,
+/// end to end (target-less, right dots / wrong ones, visible dots): tuning seeds 0-9
+/// 97 -> 98 / 6 -> 6, held-out 1000042-73 212 -> 218 / 13 -> 12, and on seeds 1000090-97,
+/// rendered before it was tried and never tuned on, 87 -> 87 / 2 -> 1. The mean's own
+/// uncertainty, which widens the spread, stays on the dots' noise: flatter weights there
+/// would widen every unit's tolerance.
+const COLOUR_WEIGHT_FLOOR_RAD: f64 = 0.25;
 
 /// Passes of down-weighting dots far from the others' colour while learning it.
 const ROBUST_PASSES: usize = 4;
@@ -514,6 +535,31 @@ mod tests {
         // With fewer than three clean dots every dot counts.
         let all = LaserColourModel::learn(&dots[1..]).expect("five dots");
         assert_eq!(all.source, ColourSource::Learned { dots: 5 });
+    }
+
+    /// Held-out unit 1000067's board dots as its calibration measured them: four clipped at
+    /// their centres (chroma read off the fringe, 14.3 degrees of noise each) and two faint
+    /// unclipped ones whose pixels' noise is 1.2 degrees but whose backgrounds were a level
+    /// or so off. Weighted by noise alone the faint pair set the colour 17.5 degrees off the
+    /// laser's; with no dot's weight above a background's error, the clipped dots count too.
+    #[test]
+    fn two_faint_dots_do_not_outvote_four_clipped_ones_for_their_low_noise() {
+        let laser = unit([0.233, 0.928, 0.291]);
+        let measured = |excess_rgb: [f64; 3], angle_sigma_rad: f64| MeasuredColour {
+            excess_rgb,
+            angle_sigma_rad,
+            filled_in: false,
+        };
+        let mut dots: Vec<MeasuredColour> =
+            [[12.0, 40.0, 15.0], [14.0, 37.0, 15.0], [23.0, 69.0, 27.0], [8.0, 25.0, 7.0]]
+                .map(|e| measured(e, 0.25))
+                .to_vec();
+        dots.extend([[3.0, 7.0, 1.0], [7.0, 26.0, 3.0]].map(|e| measured(e, 0.0204)));
+        let m = LaserColourModel::learn(&dots).expect("six dots");
+        // 0.17 rad off the laser's (0.30 weighted by noise alone), and a spread of 0.078
+        // (0.13): the faint pair no longer sets the colour, nor widens the tolerance.
+        assert!(m.angle_rad(laser) < 0.2, "{m:?}");
+        assert!(m.spread_rad < 0.1, "{m:?}");
     }
 
     /// The claim that a learned colour seldom refuses the laser's own dots (in under 1% of
