@@ -218,8 +218,8 @@ impl LaserColourModel {
     /// degrees counts little, and no dot outweighs another for its low noise alone) and
     /// down-weighted by its angle from the others' ([`ROBUST_SCALE`]); and the laser's own
     /// spread, from the median of the angles (with the same weights) less what the
-    /// measurement noise explains. One mismeasured dot among six
-    /// must not set the tolerance: on the tuning target-less sets the root-mean-square
+    /// measurement noise explains. One mismeasured dot among six must not set the
+    /// tolerance: on the tuning target-less sets the root-mean-square
     /// spread of 5-7 dots was 8-19 degrees where the laser's dots lay within 4-6 of their
     /// median, and every algae tuft of that hue passed. Dots whose colour was filled in
     /// through clipping ([`MeasuredColour::filled_in`]) are left out when three others remain.
@@ -343,8 +343,8 @@ pub fn beyond_colour_gate(sigmas: Option<f64>) -> bool {
 /// each unit's learned dots, 0.15 and 0.25 rad brought the worst of 30 held-out units from
 /// 17.5 degrees to 13.1 and 9.7, the tuning units' worst from 3.9 to 2.7 and 2.5. At 0.25,
 /// end to end (target-less, right dots / wrong ones, visible dots): tuning seeds 0-9
-/// 97 -> 98 / 6 -> 6, held-out 1000042-73 212 -> 218 / 13 -> 12, and on seeds 1000090-97,
-/// rendered before it was tried and never tuned on, 87 -> 87 / 2 -> 1. The mean's own
+/// 97 -> 98 / 6 -> 6, held-out 1000042-55 and 1000066-73 212 -> 218 / 13 -> 12, and on
+/// seeds 1000090-97, rendered before it was tried, 87 -> 87 / 2 -> 1. The mean's own
 /// uncertainty, which widens the spread, stays on the dots' noise: flatter weights there
 /// would widen every unit's tolerance.
 const COLOUR_WEIGHT_FLOOR_RAD: f64 = 0.25;
