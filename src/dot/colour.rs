@@ -247,9 +247,10 @@ impl LaserColourModel {
             return None;
         }
         let weight = |sigma: f64, floor: f64| 1.0 / (sigma * sigma + floor * floor);
-        // What each dot knows of the mean (its noise), and what it says of the colour (its
-        // noise, but no dot's above a background's error: [`COLOUR_WEIGHT_FLOOR_RAD`]).
-        let weights: Vec<f64> = dirs.iter().map(|(_, s)| weight(*s, MIN_SPREAD_RAD)).collect();
+        // Two weightings: by the dots' noise alone, for how well the mean is known; and with
+        // no dot above a background's error ([`COLOUR_WEIGHT_FLOOR_RAD`]), for what each says
+        // of the colour and its spread.
+        let noise_weights: Vec<f64> = dirs.iter().map(|(_, s)| weight(*s, MIN_SPREAD_RAD)).collect();
         let say: Vec<f64> = dirs.iter().map(|(_, s)| weight(*s, COLOUR_WEIGHT_FLOOR_RAD)).collect();
         let angles_to =
             |mean: [f64; 3]| -> Vec<f64> { dirs.iter().map(|(d, _)| dot(*d, mean).clamp(-1.0, 1.0).acos()).collect() };
@@ -277,7 +278,7 @@ impl LaserColourModel {
         }
         // The mean's own uncertainty, from the weights the robust passes give the dots at
         // the final mean: a tolerance of the dots' scatter alone is as if the mean were exact.
-        let information: f64 = robust_with(&angles, &weights).iter().sum();
+        let information: f64 = robust_with(&angles, &noise_weights).iter().sum();
         let mean_sigma = information.max(1e-12).recip().sqrt();
         let count = dirs.len().min(u16::MAX as usize) as u16;
         Some(LaserColourModel::new(
