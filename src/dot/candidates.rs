@@ -124,8 +124,14 @@ pub struct DotCandidate {
     pub outline_roughness: Option<f64>,
     /// Found as a spot of its own inside a larger blob: beside a glint's clipped part
     /// (`beside_clipped`), or on a surface the blob floods over (`peak_inside`). The larger
-    /// blob is a candidate too when it is one.
+    /// blob is a candidate too when it is one and is not centred on the spot (then the spot
+    /// stands in for it: [`DotCandidate::enclosed_by`]).
     pub split_from_blob: bool,
+    /// The blob this spot was found in (`peak_inside`) when that blob's candidate is centred
+    /// on it: the spot stands in for the blob, measured on its own pixels, but a blob too
+    /// large for a dot at its distance makes its middle no dot either (an algae tuft's
+    /// brightest 4 px in its 15 px core).
+    pub enclosed_by: Option<Box<DotCandidate>>,
     /// Mean excess (R, G, B) of the scored pixels over the local background, 8-bit levels:
     /// what a calibration learns the laser's colour from.
     pub excess_rgb: [f64; 3],
@@ -281,8 +287,17 @@ pub fn find_dot_candidates(
                 next += 1;
             }
         }
+        let mut whole = whole;
         if let Some(spot) = peak_inside(&mut maps, &pixels, id, next, band) {
-            candidates.extend(split_candidate(img, region, params, &maps, &spot, next, whole.as_ref()));
+            match blob_candidate(img, region, params, &maps, &spot, next) {
+                Some(c) if apart(&c, whole.as_ref()) => candidates.push(DotCandidate { split_from_blob: true, ..c }),
+                // The blob centred on its own peak: the spot measures it, the blob's colour
+                // and size being its surface's (a dot on a green fin read 86 degrees off its
+                // unit's colour over the fin's 2 400 px, 20 against its own spot: fresh
+                // target-less 1000091/16).
+                Some(c) => whole = Some(DotCandidate { enclosed_by: whole.map(Box::new), ..c }),
+                None => {}
+            }
             next += 1;
         }
         candidates.extend(whole);
@@ -304,8 +319,13 @@ fn split_candidate(
     whole: Option<&DotCandidate>,
 ) -> Option<DotCandidate> {
     let c = blob_candidate(img, region, params, maps, spot, id)?;
-    let apart = whole.is_none_or(|w| (c.pixel - w.pixel).norm() >= 2.0 * c.radius_px.max(2.0));
-    apart.then_some(DotCandidate { split_from_blob: true, ..c })
+    apart(&c, whole).then_some(DotCandidate { split_from_blob: true, ..c })
+}
+
+/// Whether a spot's candidate `c` lies apart from its blob's own (`whole`), as a second
+/// spot, rather than where the blob is centred.
+fn apart(c: &DotCandidate, whole: Option<&DotCandidate>) -> bool {
+    whole.is_none_or(|w| (c.pixel - w.pixel).norm() >= 2.0 * c.radius_px.max(2.0))
 }
 
 /// Least distance, pixels (8-connected steps), from a blob's clipped part at which a peak of
@@ -1155,6 +1175,7 @@ fn blob_candidate(
         },
         outline_roughness,
         split_from_blob: false,
+        enclosed_by: None,
         excess_rgb: colour.excess_rgb,
         colour_filled_in: colour.filled_in,
     })
@@ -1952,6 +1973,34 @@ mod tests {
         let (data, w, h) = fish_across_the_line(None);
         let c = along_line_at_x_120(&data, w, h);
         assert!(c.iter().all(|c| !c.split_from_blob), "{c:?}");
+    }
+
+    /// A dot of 90 levels in the middle of a yellow-green fin 20 px in radius, lit above the
+    /// blue water along the laser's colour: fin and dot flood into one blob centred on the
+    /// dot, whose size (and the ring its colour is read against) are the fin's (fresh target-less
+    /// 1000091/16: a dot on a green fin read 86 degrees off its unit's colour over the fin's
+    /// 2 400 px and was refused). The dot's own spot stands in for the blob, and keeps the
+    /// blob it was found in.
+    #[test]
+    fn a_dot_in_the_middle_of_a_fin_is_measured_on_its_own_spot() {
+        let (w, h) = (240usize, 200usize);
+        let truth = Vec2::new(120.4, 100.3);
+        let paint_fin = || {
+            paint(w, h, |x, y| {
+                let r = (x as f64 - truth.x).hypot(y as f64 - truth.y);
+                let fin = ((20.0 - r) / 2.0).clamp(0.0, 1.0);
+                let d = spot(x, y, truth, 90.0, 2.5);
+                let noise = grain(x, y);
+                [20.0 + 30.0 * fin + 0.33 * d + noise, 80.0 + 45.0 * fin + d + noise, 110.0 + 0.33 * d + noise]
+            })
+        };
+        let c = along_line_at_x_120(&paint_fin(), w, h);
+        let dot = c.iter().find(|c| (c.pixel - truth).norm() < 0.6);
+        let dot = dot.unwrap_or_else(|| panic!("no candidate within 0.6 px of the dot: {c:?}"));
+        let fin = dot.enclosed_by.as_deref().unwrap_or_else(|| panic!("found in the fin's blob: {dot:?}"));
+        assert!(!dot.split_from_blob && fin.radius_px > 15.0, "{dot:?}");
+        assert!(dot.radius_px < 6.0, "the dot's own size, not the fin's: {dot:?}");
+        assert!(dot.colour_angle_rad < 0.1, "the laser's colour: {dot:?}");
     }
 
     /// A board in green water, where the squares' contrast lies along a green laser's

@@ -465,14 +465,15 @@ const CLIPPED_NEAR_M: f64 = 0.45;
 
 /// Why a blob's size or signal cannot be a dot's at depth `z_m`; `None` when they can. A
 /// clipped core is bright enough for any distance; it blooms, but only so far
-/// ([`BLOOM_FACTOR`]).
+/// ([`BLOOM_FACTOR`]). A spot standing in for the blob it was found in
+/// ([`DotCandidate::enclosed_by`]) is too large when that blob is.
 pub(crate) fn misfit(camera: &CameraModel, c: &DotCandidate, z_m: f64) -> Option<Refusal> {
     // A matched filter's SNR grows with the blob's linear size at a given level.
     let scale = camera.width_px as f64 / 4000.0;
     let smallest = 0.5 * camera.fx_px * BEAM_MIN_RADIUS_M / z_m.max(0.05);
     if c.radius_px < smallest {
         Some(Refusal::TooSmall)
-    } else if too_large(camera, c, z_m) {
+    } else if too_large(camera, c, z_m) || c.enclosed_by.as_deref().is_some_and(|e| too_large(camera, e, z_m)) {
         Some(Refusal::TooLarge)
     } else if c.snr < MIN_SNR_AT_1M * scale / z_m.max(0.05) {
         Some(Refusal::TooFaint)
@@ -690,6 +691,18 @@ mod tests {
                 "z {z}: halo wide, core narrow"
             );
             assert_eq!(misfit(&camera, &blob(core * 1.2, 1.1 * core, false), z), Some(Refusal::TooLarge), "z {z}");
+            // A dot-sized spot standing in for the blob it was found in, centred on it: a
+            // tuft's middle is no dot when the tuft is too large for one.
+            let inside = |outer: DotCandidate| DotCandidate {
+                enclosed_by: Some(Box::new(outer)),
+                ..blob(0.5 * core, 0.5 * core, false)
+            };
+            assert_eq!(misfit(&camera, &inside(blob(1.2 * core, 0.8 * core, false)), z), None, "z {z}");
+            assert_eq!(
+                misfit(&camera, &inside(blob(1.5 * core, 1.3 * core, false)), z),
+                Some(Refusal::TooLarge),
+                "z {z}: a tuft's middle"
+            );
             assert_eq!(misfit(&camera, &blob(1.5 * widest, 1.4 * widest, true), z), None, "z {z}: bloom");
             assert_eq!(misfit(&camera, &blob(2.2 * widest, 1.9 * widest, true), z), Some(Refusal::TooLarge), "z {z}");
             // The same clipped blob judged by its white part: a dot's glow clips only the

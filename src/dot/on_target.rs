@@ -105,6 +105,7 @@ pub fn hand_candidate(px: Vec2) -> DotCandidate {
         colour_angle_sigma_rad: 0.0,
         outline_roughness: None,
         split_from_blob: false,
+        enclosed_by: None,
         excess_rgb: [0.0; 3],
         colour_filled_in: false,
     }

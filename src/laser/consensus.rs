@@ -282,6 +282,7 @@ mod tests {
             colour_angle_sigma_rad: 0.02,
             outline_roughness: None,
             split_from_blob: false,
+            enclosed_by: None,
             excess_rgb: [10.0, 30.0, 10.0],
             colour_filled_in: false,
         }
