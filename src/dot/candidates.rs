@@ -272,7 +272,7 @@ pub fn find_dot_candidates(
         let id = next;
         next += 1;
         let pixels = maps.flood_fill(start, id, params.max_area_px);
-        let whole = blob_candidate(img, region, params, &maps, &pixels, id);
+        let mut whole = blob_candidate(img, region, params, &maps, &pixels, id);
         // Spots are split from a blob only where a band is known (along a line, or around a
         // calibration's predicted dot), whose gate judges a spot against its parent. On a
         // whole target the consensus over photos picks among the candidates; an earlier form
@@ -287,7 +287,6 @@ pub fn find_dot_candidates(
                 next += 1;
             }
         }
-        let mut whole = whole;
         if let Some(spot) = peak_inside(&mut maps, &pixels, id, next, band) {
             match blob_candidate(img, region, params, &maps, &spot, next) {
                 Some(c) if apart(&c, whole.as_ref()) => candidates.push(DotCandidate { split_from_blob: true, ..c }),

@@ -465,15 +465,14 @@ const CLIPPED_NEAR_M: f64 = 0.45;
 
 /// Why a blob's size or signal cannot be a dot's at depth `z_m`; `None` when they can. A
 /// clipped core is bright enough for any distance; it blooms, but only so far
-/// ([`BLOOM_FACTOR`]). A spot standing in for the blob it was found in
-/// ([`DotCandidate::enclosed_by`]) is too large when that blob is.
+/// ([`BLOOM_FACTOR`]).
 pub(crate) fn misfit(camera: &CameraModel, c: &DotCandidate, z_m: f64) -> Option<Refusal> {
     // A matched filter's SNR grows with the blob's linear size at a given level.
     let scale = camera.width_px as f64 / 4000.0;
     let smallest = 0.5 * camera.fx_px * BEAM_MIN_RADIUS_M / z_m.max(0.05);
     if c.radius_px < smallest {
         Some(Refusal::TooSmall)
-    } else if too_large(camera, c, z_m) || c.enclosed_by.as_deref().is_some_and(|e| too_large(camera, e, z_m)) {
+    } else if too_large(camera, c, z_m) {
         Some(Refusal::TooLarge)
     } else if c.snr < MIN_SNR_AT_1M * scale / z_m.max(0.05) {
         Some(Refusal::TooFaint)
@@ -487,9 +486,12 @@ pub(crate) fn misfit(camera: &CameraModel, c: &DotCandidate, z_m: f64) -> Option
 /// Whether a blob's core is larger than a laser dot's can be at depth `z_m`: an unclipped
 /// core wider than the widest beam there (plus blur), or a clipped one blooming past
 /// [`BLOOM_FACTOR`] times the largest unclipped dot. A sun fleck or a lamp's glint is large
-/// wherever it lies; a dot is small at its own distance.
+/// wherever it lies; a dot is small at its own distance. A spot standing in for the blob it
+/// was found in ([`DotCandidate::enclosed_by`]) is too large when that blob is.
 pub fn too_large(camera: &CameraModel, c: &DotCandidate, z_m: f64) -> bool {
-    if c.saturated_core {
+    if c.enclosed_by.as_deref().is_some_and(|e| too_large(camera, e, z_m)) {
+        true
+    } else if c.saturated_core {
         let (clipped, largest) = (clipped_radius_px(c), largest_radius_px(camera, z_m));
         let glowing = (c.lit_clipped_px as f64 / core::f64::consts::PI).sqrt() - clipped >= largest;
         clipped > if glowing { FLARE_FACTOR } else { BLOOM_FACTOR } * largest
