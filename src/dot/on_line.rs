@@ -122,8 +122,40 @@ const SNR_POWER: f64 = 2.0;
 /// unclipped dot (7/17). Look-alikes are counted only of the chosen blob's kind, so the
 /// factor weighs on both sides of its confidence alike.
 const CLIPPED_ODDS: f64 = 4.0;
+/// Distance within which an unclipped blob is less likely the dot than one farther off, in
+/// proportion to the square of its distance over this one, metres. A dot's light falls
+/// with its distance (its footprint's spreading and the water's attenuation there and
+/// back), so a near dot mostly clips and an unclipped blob that implies a near dot is more
+/// often a pigment lit by the water's light. Of the plausible blobs on the line in the tuning
+/// and held-out target-less photos (seeds 0-9, 1000042-73 and 1000090-97), 27 of 106 true
+/// dots nearer than 1 m were unclipped and 42 of 45 other blobs; from 1 to 2 m, 74 of 143
+/// and 27 of 29. With [`NO_DOT_SNR`] it found one more dot there and one wrong fewer; alone,
+/// weakening near look-alikes too, it made 5 more wrong dots.
+const UNCLIPPED_NEAR_M: f64 = 1.0;
+/// Spread of a dot's outline roughness ([`DotCandidate::outline_roughness`]) in the choice
+/// between candidates: a blob is the less likely the dot the rougher its half-peak outline,
+/// as a normal of this sigma. The gate ([`MAX_OUTLINE_ROUGHNESS`]) refuses only beyond 0.10;
+/// under it, of the plausible unclipped blobs on the line in the tuning and held-out
+/// target-less photos whose outline was measured, the 94 true dots' roughness had a median
+/// of 0.023 (a half-normal of sigma 0.034), the 45 others' 0.063. Alone it changed 2 of
+/// those 800 photos (one more right, one wrong fewer).
+const OUTLINE_ROUGHNESS_SIGMA: f64 = 0.035;
+/// Signal-to-noise of a lone plausible blob on the line's centre, unclipped, beyond 1 m,
+/// smooth and of the unit's colour, in a 4000 px wide photo ([`LineCandidate::photo_scale`]),
+/// that is as likely an impostor as the dot: the weight
+/// of "none of them is the dot" (the laser off, the dot hidden or too faint, and a look-alike
+/// on the line) set against the candidates' in the confidence. Without it a lone blob
+/// was the dot with confidence 1 whatever it looked like, and a tuft on a laser-off photo
+/// was a dot. On the tuning and held-out target-less photos (seeds 0-9, 1000042-73 and
+/// 1000090-97; 527 visible dots in 800 photos), before the outline and near terms: right
+/// 406, wrong dots (on visible or faint dots, or on photos without one) 46; at 3, 395 and
+/// 36; at 5, 384 and 26; at 8, 371 and 23. Each wrong dot is a fish measured wrong with
+/// confidence, each withheld one a photo to measure by hand: 5 is where the wrong ones
+/// stop falling about as fast as the right ones.
+const NO_DOT_SNR: f64 = 5.0;
 /// A candidate is the dot when it carries at least this share of the plausible candidates'
-/// weight; below it the photo is ambiguous and withheld.
+/// weight and that of none being the dot ([`NO_DOT_SNR`]); below it the photo is ambiguous
+/// and withheld.
 pub const CLEAR_CONFIDENCE: f64 = 0.9;
 
 /// Where and how to search.
@@ -171,6 +203,11 @@ pub struct LineCandidate {
     /// Its chroma angle from the unit's learned laser colour in sigmas of the colour's
     /// spread and the blob's own noise; `None` under the prior.
     pub colour_sigmas: Option<f64>,
+    /// The photo's width over 4000 px. A matched filter's SNR grows with a blob's linear
+    /// size, so the same scene photographed 1000 px wide gives every blob a quarter of
+    /// the SNR: weighed against none of them being the dot ([`NO_DOT_SNR`], set on 4000 px
+    /// photos), a blob's signal counts as it would 4000 px wide.
+    pub photo_scale: f64,
 }
 
 impl LineCandidate {
@@ -185,10 +222,18 @@ impl LineCandidate {
         self.colour_sigmas.is_some_and(|z| z > UNLIKE_COLOUR_RATIO * OFF_COLOUR_SIGMAS)
     }
 
-    /// Relative likelihood among the plausible candidates: its place, its signal and its
-    /// colour.
+    /// Relative likelihood among the plausible candidates: its place, its signal and
+    /// clipping, its colour and its outline.
     fn weight(&self) -> f64 {
-        self.look_weight() * self.colour_likelihood()
+        self.look_weight() * self.colour_likelihood() * self.outline_likelihood()
+    }
+
+    /// How likely a beam's footprint is to have its outline's roughness (a normal of
+    /// [`OUTLINE_ROUGHNESS_SIGMA`]); 1 where the outline was not measured.
+    fn outline_likelihood(&self) -> f64 {
+        self.candidate
+            .outline_roughness
+            .map_or(1.0, |r| (-0.5 * (r.min(MAX_OUTLINE_ROUGHNESS) / OUTLINE_ROUGHNESS_SIGMA).powi(2)).exp())
     }
 
     /// How likely the laser's light is to have its chroma (a normal in the angle's
@@ -203,8 +248,13 @@ impl LineCandidate {
     /// Its place, signal and clipping alone: what a look-alike refused for its colour or
     /// outline is weighed by, since its colour has already told against it.
     fn look_weight(&self) -> f64 {
-        let clipped = if self.candidate.saturated_core { CLIPPED_ODDS } else { 1.0 };
-        (-0.5 * self.gate.chi2).exp() * self.candidate.snr.max(1.0).powf(SNR_POWER) * clipped
+        let clipped = if self.candidate.saturated_core {
+            CLIPPED_ODDS
+        } else {
+            (self.gate.depth_m / UNCLIPPED_NEAR_M).min(1.0).powi(2)
+        };
+        let snr = self.candidate.snr / self.photo_scale;
+        (-0.5 * self.gate.chi2).exp() * snr.max(1.0).powf(SNR_POWER) * clipped
     }
 
     /// What a look-alike (refused for its colour or outline) counts against the chosen dot:
@@ -451,7 +501,8 @@ pub fn judge_candidate(
     } else {
         misfit(camera, &candidate, gate.depth_m).or_else(|| off_colour.then_some(Refusal::OffColour))
     };
-    Some(LineCandidate { candidate, gate, misfit, sensitive, colour_sigmas })
+    let photo_scale = camera.width_px as f64 / 4000.0;
+    Some(LineCandidate { candidate, gate, misfit, sensitive, colour_sigmas, photo_scale })
 }
 
 /// Nearest depth a blob clipped at its centre is taken at, metres, however far the
@@ -552,11 +603,15 @@ pub fn choose(candidates: &[LineCandidate], band_half_width_px: f64) -> Result<L
         .filter(|c| c.candidate.saturated_core == best.candidate.saturated_core && !c.unlike_colour())
         .collect();
     let total: f64 = plausible.iter().map(|c| c.weight()).sum::<f64>()
-        // Look-alikes are weighed against the chosen one's look alone (its colour's
-        // likelihood scales both sides): a dot 1.5 sigmas off its unit's colour is no less
-        // clear of a ragged tuft than before colour counted (tuning 1/08 and 7/11 were
-        // withheld when the dot's colour term was set against the tuft's bare look).
-        + LOOKALIKE_SHARE * best.colour_likelihood() * lookalikes.iter().map(|c| c.lookalike_weight()).sum::<f64>();
+        // Look-alikes are weighed against the chosen one's look alone (its colour's and
+        // outline's likelihoods scale both sides): a dot 1.5 sigmas off its unit's colour is
+        // no less clear of a ragged tuft than before colour counted (tuning 1/08 and 7/11
+        // were withheld when the dot's colour term was set against the tuft's bare look).
+        + LOOKALIKE_SHARE
+            * best.colour_likelihood()
+            * best.outline_likelihood()
+            * lookalikes.iter().map(|c| c.lookalike_weight()).sum::<f64>()
+        + NO_DOT_SNR.powf(SNR_POWER);
     let confidence = best.weight() / total;
     if confidence < CLEAR_CONFIDENCE {
         let candidates_px = plausible.iter().map(|c| [c.candidate.pixel.x, c.candidate.pixel.y]).collect();
@@ -773,6 +828,7 @@ mod tests {
             misfit,
             sensitive: false,
             colour_sigmas: None,
+            photo_scale: 1.0,
         }
     }
 
@@ -794,7 +850,8 @@ mod tests {
     fn look_alikes_refused_for_their_look_lower_the_confidence() {
         let dot = blob(100.0, None, 0.2);
         let alone = choose(std::slice::from_ref(&dot), 80.0).expect("one plausible blob");
-        assert!((alone.confidence - 1.0).abs() < 1e-12);
+        let weight = 2500.0 * (-0.02f64).exp();
+        assert!((alone.confidence - weight / (weight + 25.0)).abs() < 1e-12, "{}", alone.confidence);
         // A tuft half again as strong as the dot, refused for its outline.
         let ragged = with_snr(blob(300.0, Some(Refusal::Ragged), 0.2), 75.0);
         let e = choose(&[dot.clone(), ragged.clone()], 80.0).unwrap_err();
@@ -827,7 +884,7 @@ mod tests {
     }
 
     /// Under a learned colour, a blob nearer the laser's colour is likelier the dot: a dot
-    /// 0.3 sigmas off is clear of a stronger tuft 2.5 sigmas off that the prior could not
+    /// 0.3 sigmas off is clear of a stronger tuft 2.8 sigmas off that the prior could not
     /// tell from it. A dot 1.5 sigmas off stays clear of a ragged look-alike it was clear of
     /// before colour counted, as both are weighed by its look.
     #[test]
@@ -836,19 +893,22 @@ mod tests {
         let tuft = with_snr(blob(300.0, None, 0.2), 75.0);
         assert!(choose(&[dot.clone(), tuft.clone()], 80.0).is_err(), "the prior tells no green from another");
         let coloured = |c: &LineCandidate, z: f64| LineCandidate { colour_sigmas: Some(z), ..c.clone() };
-        let found = choose(&[coloured(&dot, 0.3), coloured(&tuft, 2.5)], 80.0).expect("the laser's colour chooses");
+        let found = choose(&[coloured(&dot, 0.3), coloured(&tuft, 2.8)], 80.0).expect("the laser's colour chooses");
         assert_eq!(found.pixel, dot.candidate.pixel);
         assert!(found.confidence > CLEAR_CONFIDENCE, "{}", found.confidence);
-        // The look-alike's 0.12 * 40^2 = 192 against the dot's 2500 by their looks: 0.93.
-        // Set against the dot's look and colour, 2500 * exp(-1.125) = 812, it would be 0.81.
+        // The look-alike's 0.12 * 40^2 = 192 against the dot's 2500 by their looks, and
+        // none of them the dot (25) against its look and colour: 0.92. Set against the dot's
+        // look and colour, 2500 * exp(-1.125) = 812, it would be 0.80.
         let ragged = with_snr(blob(300.0, Some(Refusal::Ragged), 0.2), 40.0);
         let found = choose(&[coloured(&dot, 1.5), coloured(&ragged, 2.0)], 80.0).expect("clear of the look-alike");
-        assert!((found.confidence - 2500.0 / 2692.0).abs() < 1e-9, "{}", found.confidence);
+        let (offset, colour) = ((-0.02f64).exp(), (-1.125f64).exp());
+        let expected = 2500.0 * offset * colour / ((2500.0 + 192.0) * offset * colour + 25.0);
+        assert!((found.confidence - expected).abs() < 1e-9, "{} {expected}", found.confidence);
     }
 
     /// A blob clipped at its centre is likelier the dot than one that is not: an unclipped dot
-    /// of SNR 50 beside a plausible tuft of SNR 30 is withheld (2500 against 900: 0.74);
-    /// clipped, it carries 4 x 2500 against 900 and is taken (0.92).
+    /// of SNR 50 beside a plausible tuft of SNR 30 is withheld (2500 against 900 and 25 for
+    /// neither: 0.73); clipped, it carries 4 x 2500 against them and is taken (0.92).
     #[test]
     fn a_blob_clipped_at_its_centre_is_likelier_the_dot() {
         let dot = blob(100.0, None, 0.0);
@@ -857,13 +917,13 @@ mod tests {
         let clipped_dot = clipped(dot);
         let found = choose(&[clipped_dot.clone(), tuft], 80.0).expect("a clipped dot beside an unclipped tuft");
         assert_eq!(found.pixel, clipped_dot.candidate.pixel);
-        assert!((found.confidence - 10_000.0 / 10_900.0).abs() < 1e-9, "{}", found.confidence);
+        assert!((found.confidence - 10_000.0 / 10_925.0).abs() < 1e-9, "{}", found.confidence);
     }
 
     /// A look-alike counts less the further its chroma lies beyond the off-colour gate: a
     /// tuft 3 sigmas off the laser's colour, stronger than the dot, withholds it (0.12 of
     /// 60^2 = 432 against 2500: 0.85); the same tuft 6 sigmas off counts a quarter of that
-    /// (0.96).
+    /// (0.95, with 25 for none of them the dot).
     #[test]
     fn a_look_alike_counts_less_the_further_off_the_lasers_colour() {
         let dot = LineCandidate { colour_sigmas: Some(0.0), ..blob(100.0, None, 0.0) };
@@ -877,7 +937,62 @@ mod tests {
         ));
         let found = choose(&[dot.clone(), tuft(2.0 * OFF_COLOUR_SIGMAS)], 80.0).expect("clear of a far-off tuft");
         assert_eq!(found.pixel, dot.candidate.pixel);
-        assert!((found.confidence - 2500.0 / 2608.0).abs() < 1e-9, "{}", found.confidence);
+        assert!((found.confidence - 2500.0 / 2633.0).abs() < 1e-9, "{}", found.confidence);
+    }
+
+    /// A lone plausible blob is the dot only when it is clearly likelier than none of the
+    /// candidates being the dot (a laser-off photo with a look-alike on the line): at SNR 16
+    /// on the line's centre of a 4000 px photo it carries 256 against 25 (0.91) and is taken;
+    /// at SNR 14, 196 against 25 (0.89), it is withheld with its pixel named.
+    #[test]
+    fn a_lone_blob_too_weak_to_tell_from_no_dot_is_withheld() {
+        let found = choose(&[with_snr(blob(100.0, None, 0.0), 16.0)], 80.0).expect("strong enough alone");
+        assert!((found.confidence - 256.0 / 281.0).abs() < 1e-9, "{}", found.confidence);
+        let weak = with_snr(blob(100.0, None, 0.0), 14.0);
+        let e = choose(std::slice::from_ref(&weak), 80.0).unwrap_err();
+        assert_eq!(
+            e.to_string(),
+            "a dot-like blob on the calibrated laser's image at (100, 100), not clearly the dot; give the dot by hand"
+        );
+        // In a photo 1000 px wide the same scene's blobs have a quarter of the SNR: 14 there
+        // is 56 at 4000 px, 3136 against 25.
+        let small = choose(&[LineCandidate { photo_scale: 0.25, ..weak }], 80.0).expect("a 1000 px photo");
+        assert!((small.confidence - 3136.0 / 3161.0).abs() < 1e-9, "{}", small.confidence);
+    }
+
+    /// A rough outline under the gate's limit still tells against a blob: a tuft of SNR 60
+    /// whose outline departs 0.09 of its radius from an ellipse weighs 3600 * exp(-3.3) = 132
+    /// against a smooth dot of SNR 50 (2500) and 25 for neither, and the dot is taken (0.94);
+    /// beside a tuft of roughness 0.06 (828) it is withheld (0.75).
+    #[test]
+    fn a_rougher_outline_is_less_likely_a_beams_footprint() {
+        let outline = |c: LineCandidate, r: f64| LineCandidate {
+            candidate: DotCandidate { outline_roughness: Some(r), ..c.candidate },
+            ..c
+        };
+        let dot = outline(blob(100.0, None, 0.0), 0.0);
+        let tuft = |r: f64| outline(with_snr(blob(300.0, None, 0.0), 60.0), r);
+        let found = choose(&[dot.clone(), tuft(0.09)], 80.0).expect("clear of a rough tuft");
+        assert_eq!(found.pixel, dot.candidate.pixel);
+        let rough = 3600.0 * (-0.5 * (0.09f64 / OUTLINE_ROUGHNESS_SIGMA).powi(2)).exp();
+        assert!((found.confidence - 2500.0 / (2525.0 + rough)).abs() < 1e-9, "{}", found.confidence);
+        assert!(choose(&[dot, tuft(0.06)], 80.0).is_err(), "a smoother tuft withholds the dot");
+    }
+
+    /// An unclipped blob that implies a near dot is less likely the dot, as the square of
+    /// its distance over 1 m: alone at SNR 20 it is taken at 2 m (400 against 25: 0.94) and
+    /// withheld at 0.5 m (100 against 25: 0.8); clipped there, it is taken (1600: 0.98).
+    #[test]
+    fn an_unclipped_blob_near_the_camera_is_less_likely_the_dot() {
+        let at = |depth_m: f64| {
+            let c = with_snr(blob(100.0, None, 0.0), 20.0);
+            LineCandidate { gate: LineGate { depth_m, ..c.gate }, ..c }
+        };
+        let far = choose(&[at(2.0)], 80.0).expect("a far unclipped blob");
+        assert!((far.confidence - 400.0 / 425.0).abs() < 1e-9, "{}", far.confidence);
+        assert!(choose(&[at(0.5)], 80.0).is_err());
+        let near = choose(&[clipped(at(0.5))], 80.0).expect("a near clipped blob");
+        assert!((near.confidence - 1600.0 / 1625.0).abs() < 1e-9, "{}", near.confidence);
     }
 
     /// Under a learned colour of 4 degrees' spread, a blob refused 20 degrees off the laser's
