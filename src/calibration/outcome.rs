@@ -184,6 +184,12 @@ pub struct CandidateCheck {
     pub core_radius_px: f64,
     #[serde(default)]
     pub peak_levels: f64,
+    /// For a spot found inside a larger blob and centred on it, which stands in for it:
+    /// that blob's `core_radius_px`. A stand-in is `too-large` when the blob it stands in
+    /// for is too large for a dot at its distance, however small its own core. Null for a
+    /// blob measured whole.
+    #[serde(default)]
+    pub enclosing_core_radius_px: Option<f64>,
     /// How far its half-peak outline departs from an ellipse, share of its radius; null
     /// when not measured (clipped, small or faint).
     #[serde(default)]
@@ -213,6 +219,7 @@ impl CandidateCheck {
             saturated: c.candidate.saturated_core,
             core_radius_px: c.candidate.core_radius_px,
             peak_levels: c.candidate.peak_green,
+            enclosing_core_radius_px: c.candidate.enclosed_by.as_ref().map(|e| e.core_radius_px),
             outline_roughness: c.candidate.outline_roughness,
             offset_px: c.gate.offset_px,
             sigma_px: c.gate.sigma_px,
@@ -297,5 +304,40 @@ mod tests {
         let back: PhotoCheck = serde_json::from_value(v.clone()).unwrap();
         assert_eq!(serde_json::to_value(&back).unwrap(), v);
         assert_eq!(serde_json::to_value(LengthRule::FrontoParallel).unwrap(), LengthRule::FrontoParallel.as_str());
+    }
+
+    /// A spot standing in for the blob it was found in names that blob's core beside its
+    /// own: the size its `too-large` refusal judged. A blob measured whole names none.
+    #[test]
+    fn a_stand_in_spot_names_the_core_of_the_blob_it_stands_in_for() {
+        use crate::dot::candidates::DotCandidate;
+        use crate::dot::on_line::LineCandidate;
+        use crate::dot::on_target::hand_candidate;
+        let at = Vec2::new(100.0, 100.0);
+        let fin = DotCandidate { core_radius_px: 18.8, ..hand_candidate(at) };
+        let spot = DotCandidate { core_radius_px: 4.0, enclosed_by: Some(Box::new(fin)), ..hand_candidate(at) };
+        let gate = fslcal_core::LineGate {
+            depth_m: 2.0,
+            along_laser_m: 2.0,
+            offset_px: 0.0,
+            line_sigma_px: 0.5,
+            sigma_px: 1.0,
+            chi2: 0.0,
+            implied_turn_rad: 0.0,
+        };
+        let stand_in = LineCandidate {
+            candidate: spot,
+            gate,
+            misfit: Some(Refusal::TooLarge),
+            sensitive: false,
+            colour_sigmas: None,
+            photo_scale: 1.0,
+        };
+        let v = serde_json::to_value(CandidateCheck::of(&stand_in, stand_in.misfit)).unwrap();
+        assert_eq!((v["core_radius_px"].as_f64(), v["enclosing_core_radius_px"].as_f64()), (Some(4.0), Some(18.8)));
+        assert_eq!(v["refused"], "too-large");
+        let whole =
+            LineCandidate { candidate: DotCandidate { enclosed_by: None, ..stand_in.candidate.clone() }, ..stand_in };
+        assert!(serde_json::to_value(CandidateCheck::of(&whole, None)).unwrap()["enclosing_core_radius_px"].is_null());
     }
 }

@@ -207,7 +207,7 @@ pub fn write(dir: &Path, r: &CheckReport) -> Result<PathBuf, ReportError> {
 /// each other one cannot be the dot.
 fn candidate_table(page: &mut Page, r: &CheckReport) {
     page.heading("Candidates");
-    page.note("Each dot-like blob near the calibrated line, strongest first. A blob is the dot when it is plausible (on the line within what the calibration explains, of a dot's size, brightness, colour and round outline at the distance its place implies) and carries 90% of the plausible blobs' likelihood; blobs refused only for their colour or outline count against it (a scene that makes dot-like things there makes the survivor less certain).");
+    page.note("Each dot-like blob near the calibrated line, strongest first. A blob is the dot when it is plausible (on the line within what the calibration explains, of a dot's size, brightness, colour and round outline at the distance its place implies) and carries 90% of the likelihood of the plausible blobs and of none of them being the dot (a lone weak or doubtful blob is withheld); blobs refused only for their colour or outline count against it (a scene that makes dot-like things there makes the survivor less certain).");
     let mut rows = Vec::new();
     for p in &r.photos {
         for c in &p.candidates {
