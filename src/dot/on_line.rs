@@ -142,11 +142,10 @@ const UNCLIPPED_NEAR_M: f64 = 1.0;
 const OUTLINE_ROUGHNESS_SIGMA: f64 = 0.035;
 /// Signal-to-noise of a lone plausible blob on the line's centre, unclipped, beyond 1 m,
 /// smooth and of the unit's colour, in a 4000 px wide photo ([`LineCandidate::photo_scale`]),
-/// that is as likely an impostor as the dot: the weight
-/// of "none of them is the dot" (the laser off, the dot hidden or too faint, and a look-alike
-/// on the line) set against the candidates' in the confidence. Without it a lone blob
-/// was the dot with confidence 1 whatever it looked like, and a tuft on a laser-off photo
-/// was a dot. On the tuning and held-out target-less photos (seeds 0-9, 1000042-73 and
+/// that is as likely an impostor as the dot: the weight of "none of them is the dot" (the
+/// laser off, the dot hidden or too faint, and a look-alike on the line) set against the
+/// candidates' in the confidence. Without it a lone blob was the dot with confidence 1
+/// whatever it looked like, and a tuft on a laser-off photo was a dot. On the tuning and held-out target-less photos (seeds 0-9, 1000042-73 and
 /// 1000090-97; 527 visible dots in 800 photos), before the outline and near terms: right
 /// 406, wrong dots (on visible or faint dots, or on photos without one) 46; at 3, 395 and
 /// 36; at 5, 384 and 26; at 8, 371 and 23. Each wrong dot is a fish measured wrong with
