@@ -145,10 +145,11 @@ const OUTLINE_ROUGHNESS_SIGMA: f64 = 0.035;
 /// that is as likely an impostor as the dot: the weight of "none of them is the dot" (the
 /// laser off, the dot hidden or too faint, and a look-alike on the line) set against the
 /// candidates' in the confidence. Without it a lone blob was the dot with confidence 1
-/// whatever it looked like, and a tuft on a laser-off photo was a dot. On the tuning and held-out target-less photos (seeds 0-9, 1000042-73 and
-/// 1000090-97; 527 visible dots in 800 photos), before the outline and near terms: right
-/// 406, wrong dots (on visible or faint dots, or on photos without one) 46; at 3, 395 and
-/// 36; at 5, 384 and 26; at 8, 371 and 23. Each wrong dot is a fish measured wrong with
+/// whatever it looked like, and a tuft on a laser-off photo was a dot. On the tuning and
+/// held-out target-less photos (seeds 0-9, 1000042-73 and 1000090-97; 527 visible dots in
+/// 800 photos), before the outline and near terms: right 406, wrong dots (on visible or
+/// faint dots, or on photos without one) 46; at 3, 395 and 36; at 5, 384 and 26; at 8, 371
+/// and 23. Each wrong dot is a fish measured wrong with
 /// confidence, each withheld one a photo to measure by hand: 5 is where the wrong ones
 /// stop falling about as fast as the right ones.
 const NO_DOT_SNR: f64 = 5.0;
@@ -500,8 +501,7 @@ pub fn judge_candidate(
     } else {
         misfit(camera, &candidate, gate.depth_m).or_else(|| off_colour.then_some(Refusal::OffColour))
     };
-    let photo_scale = camera.width_px as f64 / 4000.0;
-    Some(LineCandidate { candidate, gate, misfit, sensitive, colour_sigmas, photo_scale })
+    Some(LineCandidate { candidate, gate, misfit, sensitive, colour_sigmas, photo_scale: photo_scale(camera) })
 }
 
 /// Nearest depth a blob clipped at its centre is taken at, metres, however far the
@@ -513,18 +513,23 @@ pub fn judge_candidate(
 /// not clipped at their centres.
 const CLIPPED_NEAR_M: f64 = 0.45;
 
+/// The photo's width over the 4000 px at which this module's pixel sizes and signal-to-noise
+/// figures were measured. A matched filter's SNR grows with a blob's linear size at a given
+/// level, as blur and halo widths in pixels do.
+fn photo_scale(camera: &CameraModel) -> f64 {
+    camera.width_px as f64 / 4000.0
+}
+
 /// Why a blob's size or signal cannot be a dot's at depth `z_m`; `None` when they can. A
 /// clipped core is bright enough for any distance; it blooms, but only so far
 /// ([`BLOOM_FACTOR`]).
 pub(crate) fn misfit(camera: &CameraModel, c: &DotCandidate, z_m: f64) -> Option<Refusal> {
-    // A matched filter's SNR grows with the blob's linear size at a given level.
-    let scale = camera.width_px as f64 / 4000.0;
     let smallest = 0.5 * camera.fx_px * BEAM_MIN_RADIUS_M / z_m.max(0.05);
     if c.radius_px < smallest {
         Some(Refusal::TooSmall)
     } else if too_large(camera, c, z_m) {
         Some(Refusal::TooLarge)
-    } else if c.snr < MIN_SNR_AT_1M * scale / z_m.max(0.05) {
+    } else if c.snr < MIN_SNR_AT_1M * photo_scale(camera) / z_m.max(0.05) {
         Some(Refusal::TooFaint)
     } else if c.outline_roughness.is_some_and(|r| r > MAX_OUTLINE_ROUGHNESS) {
         Some(Refusal::Ragged)
@@ -567,13 +572,13 @@ fn clipped_radius_px(c: &DotCandidate) -> f64 {
 /// spread by the largest divergence, plus blur and halo. (A clipped core blooms without
 /// bound and is judged by its halo's colour instead.)
 pub fn largest_radius_px(camera: &CameraModel, z_m: f64) -> f64 {
-    widest_beam_px(camera, z_m) + (HALO_PX * camera.width_px as f64 / 4000.0).max(HALO_FLOOR_PX)
+    widest_beam_px(camera, z_m) + (HALO_PX * photo_scale(camera)).max(HALO_FLOOR_PX)
 }
 
 /// Largest half-peak radius of an unclipped dot at depth `z_m`, pixels: the widest beam
 /// spread by the largest divergence, plus blur ([`CORE_BLUR_PX`]).
 pub fn largest_core_radius_px(camera: &CameraModel, z_m: f64) -> f64 {
-    widest_beam_px(camera, z_m) + (CORE_BLUR_PX * camera.width_px as f64 / 4000.0).max(HALO_FLOOR_PX)
+    widest_beam_px(camera, z_m) + (CORE_BLUR_PX * photo_scale(camera)).max(HALO_FLOOR_PX)
 }
 
 /// Radius of the widest beam spread by the largest divergence at depth `z_m`, pixels.
