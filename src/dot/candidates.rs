@@ -1098,7 +1098,7 @@ fn blob_candidate(
     // Centred on the dot's own size (at half its peak), not its halo's: against a board
     // square's level a near dot's halo reaches the threshold 30 px out, and a disc that
     // wide took in a bubble 42 px away and moved the centre 12 px (tuning seed 2).
-    let centred = refine_centre(img, rough, core_radius_px.max(1.5), params.colour.rgb);
+    let centred = refine_centre(img, rough, core_radius_px.max(1.5), &params.colour);
     let centre = centred.as_ref().map_or(rough, |c| c.at);
     if let Some((line, half)) = &region.band {
         if distance_to_polyline(line, centre) > *half {
@@ -1663,31 +1663,60 @@ mod tests {
         assert_eq!(lit_clipped_around(&view, &maps, &[at], lit, 500), 0, "a clipped surface");
     }
 
+    /// A 200 x 150 image whose pixel (x, y) is `colour(x, y, t)` plus a fixed grain, `t` 1
+    /// inside an elliptic tuft (7 x 5 px) at `tuft` and 0 outside.
+    fn beside_tuft(tuft: Vec2, colour: impl Fn(usize, usize, f64) -> [f64; 3]) -> (Vec<u8>, usize, usize) {
+        let (w, h) = (200usize, 150usize);
+        let data = paint(w, h, |x, y| {
+            let (dx, dy) = (x as f64 - tuft.x, y as f64 - tuft.y);
+            let t = if (dx / 7.0).powi(2) + (dy / 5.0).powi(2) <= 1.0 { 1.0 } else { 0.0 };
+            colour(x, y, t).map(|v| v + grain(x, y))
+        });
+        (data, w, h)
+    }
+
     /// A near dot whose core clips white, touching a tuft whose green clips: the tuft's
     /// clipped green and fringe would pull a centroid over both 2-5 px toward it (tuning
     /// seeds: a dot on algae 6.4 px off, one beside a sun fleck 5.4 px off); the white core
     /// alone is round about the dot's centre.
     #[test]
     fn a_white_core_is_centred_on_itself_not_on_the_tuft_beside_it() {
-        let (w, h) = (200usize, 150usize);
         let truth = Vec2::new(90.4, 70.7);
-        let tuft = Vec2::new(101.0, 74.0);
-        let data = paint(w, h, |x, y| {
+        let (data, w, h) = beside_tuft(Vec2::new(101.0, 74.0), |x, y, t| {
             let core = spot(x, y, truth, 600.0, 3.0);
             let halo = spot(x, y, truth, 120.0, 6.0);
-            let (dx, dy) = (x as f64 - tuft.x, y as f64 - tuft.y);
-            let t = if (dx / 7.0).powi(2) + (dy / 5.0).powi(2) <= 1.0 { 1.0 } else { 0.0 };
-            let noise = grain(x, y);
-            [
-                30.0 + core + 0.2 * halo + 40.0 * t + noise,
-                80.0 + core + halo + 200.0 * t + noise,
-                90.0 + core + 0.3 * halo + 10.0 * t + noise,
-            ]
+            [30.0 + core + 0.2 * halo + 40.0 * t, 80.0 + core + halo + 200.0 * t, 90.0 + core + 0.3 * halo + 10.0 * t]
         });
         let c = find_dot_candidates(&view(&data, w, h), &SearchRegion::default(), &DotDetectorParams::default(), 4);
         let dot = c.iter().find(|c| (c.pixel - truth).norm() < 6.0);
         let dot = dot.unwrap_or_else(|| panic!("no candidate near the dot: {c:?}"));
         assert!((dot.pixel - truth).norm() < 0.5, "{:?}", dot.pixel);
+    }
+
+    /// A yellow-green dot whose green and red clip (not white: its blue stays low), touching a
+    /// green tuft (red 2% of its green) whose green clips too: every clipped-green pixel
+    /// weighed alike, the centre is pulled 3.4 px toward the tuft (seeds 1000100/00 and
+    /// 1000101/11: 6.9 px). Under the unit's learned colour the tuft's pixels, which lack the
+    /// laser's red, weigh next to nothing (0.3 px off); under the prior, which knows no
+    /// second channel, the centre stays pulled.
+    #[test]
+    fn a_clipped_dot_is_centred_on_the_laser_s_colour_not_on_a_clipped_tuft_beside_it() {
+        let truth = Vec2::new(90.4, 70.7);
+        let (data, w, h) = beside_tuft(Vec2::new(99.5, 72.0), |x, y, t| {
+            let dot = spot(x, y, truth, 600.0, 3.0) + spot(x, y, truth, 60.0, 6.0);
+            [40.0 + 0.6 * dot + 5.0 * t, 70.0 + dot + 220.0 * t, 60.0 + 0.1 * dot + 5.0 * t]
+        });
+        let centre = |colour: LaserColourModel| {
+            let params = DotDetectorParams { colour, ..DotDetectorParams::default() };
+            let c = find_dot_candidates(&view(&data, w, h), &SearchRegion::default(), &params, 4);
+            let dot = c.iter().find(|c| (c.pixel - truth).norm() < 8.0).map(|c| c.pixel);
+            dot.unwrap_or_else(|| panic!("no candidate near the dot: {c:?}"))
+        };
+        let unit = fslcal_core::unit_file::LaserColour { rgb: [0.51, 0.85, 0.085], spread_rad: 0.06, dots: 8 };
+        let learned = centre(LaserColourModel::from_unit(&unit).expect("a yellow-green laser"));
+        let prior = centre(LaserColourModel::green_prior());
+        assert!((learned - truth).norm() < 0.5, "learned colour: {learned:?}");
+        assert!((prior - truth).norm() > 1.0, "the prior: {prior:?}");
     }
 
     /// A green dot on a white square 12 px from a black one, in clear blue water: its colour

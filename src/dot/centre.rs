@@ -2,6 +2,7 @@
 //! re-centring on the photo against a background model that a checkerboard cannot bias.
 
 use super::candidates::{neighbours8, BlobBox, ColourView, RoiMaps, CLIPPED};
+use super::colour::{ColourSource, LaserColourModel};
 use fslcal_core::Vec2;
 
 /// Intensity-weighted centroid of blob `id` in ROI pixels (its clipped core weighted at
@@ -46,25 +47,50 @@ pub(super) fn weighted_centre(maps: &RoiMaps, id: u32, (mnx, mxx, mny, mxy): Blo
 /// window is symmetric about the answer. A core clipped white is centred on its white pixels
 /// alone ([`clipped_core_centre`]): the beam clips white where it is brightest, round about
 /// its centre, while clipped green and a fringe above the floor take in whatever bright
-/// green touches the dot (an algae tuft, a sun fleck's glow).
+/// green touches the dot (an algae tuft, a sun fleck's glow). Under a learned colour each
+/// bright pixel of a clipped core is also weighed by how far it shows the laser's second
+/// channel ([`Background::agreement`]), unless that moves the centre beyond the blob's
+/// radius: a blob whose pixels mostly lack the laser's colour is no dot, and (with every
+/// pixel judged) its few agreeing ones walked its centre 14.0 px onto the line (seed
+/// 1000100/17, an algae tuft 78 px from the dot).
 pub(super) fn refine_centre(
     img: &ColourView,
     rough: Vec2,
     blob_radius_px: f64,
-    laser_rgb: [f64; 3],
+    laser: &LaserColourModel,
 ) -> Option<Centred> {
+    let (plain, clipped) = centre_with(img, rough, blob_radius_px, laser.rgb, None)?;
+    // A disc with no clipped green at any step is centred by its matched filter alone, which
+    // no agreement weighs: the second pass would give the same centre.
+    let Some(second) = second_channel(laser).filter(|_| clipped) else { return Some(plain) };
+    match centre_with(img, rough, blob_radius_px, laser.rgb, Some(second)) {
+        Some((agreeing, _)) if (agreeing.at - plain.at).norm() <= blob_radius_px => Some(agreeing),
+        _ => Some(plain),
+    }
+}
+
+/// [`refine_centre`] with pixels weighed by their agreement with the laser's `second`
+/// channel, or not; and whether its disc held clipped green at any step.
+fn centre_with(
+    img: &ColourView,
+    rough: Vec2,
+    blob_radius_px: f64,
+    laser_rgb: [f64; 3],
+    second: Option<SecondChannel>,
+) -> Option<(Centred, bool)> {
     let r_in = blob_radius_px * 1.6 + 3.0;
     let ring = (r_in + 2.0, r_in + 6.0);
     let mut c = rough;
     let (mut glint, mut over) = (Glint::new(), Glint::new());
-    let mut step = 0;
+    let (mut step, mut clipped) = (0, false);
     // A glint beside the dot, left out with its mirror image (which moves with the centre),
     // moves the centre a pixel or more per step: it takes more steps to settle.
     while step < if glint.is_empty() { 3 } else { 8 } {
         step += 1;
         let window = Window::around(img, c, ring.1)?;
-        let background = Background::fit(img, &window, c, ring, laser_rgb)?;
+        let background = Background::fit(img, &window, c, ring, laser_rgb, second)?;
         let disc = DiscSignal::sum(img, &window, c, r_in, &background, &Glint::new());
+        clipped |= !disc.saturated.is_empty();
         let next = if disc.saturated.is_empty() {
             // A faint dot (nothing clipped) is found better by a matched filter than by a
             // thresholded centroid, whose few surviving pixels are at the noise's mercy.
@@ -108,7 +134,7 @@ pub(super) fn refine_centre(
             break;
         }
     }
-    Some(Centred { at: c, glint, over })
+    Some((Centred { at: c, glint, over }, clipped))
 }
 
 /// Image pixels (x, y) of a glint.
@@ -189,6 +215,42 @@ struct Background {
     /// The regressor is red, not blue.
     on_red: bool,
     floor: f64,
+    /// The ring's mean (R, G, B), levels.
+    mean_rgb: [f64; 3],
+    /// The laser's second channel ([`second_channel`]), when its colour is learned.
+    second: Option<SecondChannel>,
+}
+
+/// The channel besides green in which a learned laser colour shows most (red for a
+/// yellow-green laser, blue for a bluish one), and its level per level of green.
+#[derive(Clone, Copy, Debug)]
+struct SecondChannel {
+    channel: usize,
+    per_green: f64,
+}
+
+/// Share of the way from a ring's green to the clip below which a pixel's agreement with the
+/// laser's colour is not judged ([`Background::agreement`]): a dim pixel's second channel is
+/// at the mercy of a level or two of error in its background. Judged on every pixel above
+/// the floor, the fringe of a clipped bluish dot of 430 levels moved its centre 3.2 px (seed
+/// 1000119/03) and a merged blob's few agreeing pixels walked it onto the line elsewhere.
+const BRIGHT_SHARE: f64 = 0.5;
+
+/// Least share of green a laser's second channel must carry to tell its light from a
+/// pigment's: a pure green laser's red and blue (0.1-0.25 of its green) are as low as an
+/// algae tuft's.
+const MIN_SECOND_PER_GREEN: f64 = 0.3;
+
+/// The laser's second channel, for a learned colour that has one ([`MIN_SECOND_PER_GREEN`]);
+/// `None` under the prior, which spans lasers from bluish to yellow-green.
+fn second_channel(laser: &LaserColourModel) -> Option<SecondChannel> {
+    if !matches!(laser.source, ColourSource::Learned { .. }) {
+        return None;
+    }
+    let rgb = laser.rgb;
+    let channel = if rgb[0] > rgb[2] { 0 } else { 2 };
+    let per_green = rgb[channel] / rgb[1].max(1e-6);
+    (per_green >= MIN_SECOND_PER_GREEN).then_some(SecondChannel { channel, per_green })
 }
 
 /// Share of the laser's green a background model must leave in its residual.
@@ -203,6 +265,7 @@ impl Background {
         c: Vec2,
         (ring_a, ring_b): (f64, f64),
         laser_rgb: [f64; 3],
+        second: Option<SecondChannel>,
     ) -> Option<Background> {
         let mut ring = Vec::new();
         for (x, y, d) in window.pixels(c) {
@@ -232,7 +295,7 @@ impl Background {
             // A uniform ring gives no slope: fall back to a constant background.
             let slope = if var_x > 4.0 { ((sxg / n - sx / n * sg / n) / var_x).clamp(0.0, 3.0) } else { 0.0 };
             let offset = sg / n - slope * sx / n;
-            let mut model = Background { offset, slope, on_red, floor: 0.0 };
+            let mut model = Background { offset, slope, on_red, floor: 0.0, mean_rgb: [0.0; 3], second };
             let ss: f64 = ring.iter().map(|p| model.residual(p[0], p[1], p[2]).powi(2)).sum();
             model.floor = 2.0 * (ss / n).sqrt();
             let kept = 1.0 - slope * laser_rgb[k] / laser_rgb[1].max(1e-6);
@@ -257,7 +320,27 @@ impl Background {
                 }
             }
         };
-        Some(choice.0)
+        let mut model = choice.0;
+        let n = ring.len() as f64;
+        model.mean_rgb = [0, 1, 2].map(|k| ring.iter().map(|p| p[k]).sum::<f64>() / n);
+        Some(model)
+    }
+
+    /// How far a pixel's excess over the ring is the laser's light, 0 to 1: its second
+    /// channel's excess over what the laser adds there with the pixel's green excess. Where
+    /// green clips, every pixel of a dot and of a bright tuft touching it weighs alike in a
+    /// centroid, and a tuft of another hue pulled the centre 7 px toward it (seeds 1000100/00,
+    /// a bluish dot, and 1000101/11, a yellow-green one); the laser's own pixels carry its red
+    /// or blue as well, a green pigment's do not. A pixel whose green is clipped reads too
+    /// little green, so the dot's own clipped pixels stay at 1. Pixels less than
+    /// [`BRIGHT_SHARE`] of the way from the ring's green to the clip keep their weight.
+    fn agreement(&self, r: f64, g: f64, b: f64) -> f64 {
+        let Some(SecondChannel { channel, per_green }) = self.second else { return 1.0 };
+        let green = g - self.mean_rgb[1];
+        if green < BRIGHT_SHARE * (CLIPPED as f64 - self.mean_rgb[1]) || green <= 1.0 {
+            return 1.0;
+        }
+        (([r, g, b][channel] - self.mean_rgb[channel]) / (per_green * green)).clamp(0.0, 1.0)
     }
 
     /// The dot's signal: green above what the background model predicts.
@@ -390,8 +473,9 @@ struct DiscSignal {
     peak: f64,
     /// Sums of weight, weight x and weight y over unclipped pixels above the floor.
     acc: (f64, f64, f64),
-    /// Pixels with clipped green.
-    saturated: Vec<(f64, f64)>,
+    /// Pixels with clipped green, and how far each is the laser's light
+    /// ([`Background::agreement`]).
+    saturated: Vec<(f64, f64, f64)>,
     /// The pixel clipped in all three channels nearest the centre, if any.
     nearest_white: Option<(i64, i64)>,
 }
@@ -416,8 +500,9 @@ impl DiscSignal {
                 continue;
             }
             let (r, g, b) = img.rgb(x as usize, y as usize);
+            let agreement = background.agreement(r as f64, g as f64, b as f64);
             if g >= CLIPPED {
-                disc.saturated.push((x as f64, y as f64));
+                disc.saturated.push((x as f64, y as f64, agreement));
                 if r.min(b) >= CLIPPED && d < white_d {
                     (white_d, disc.nearest_white) = (d, Some((x, y)));
                 }
@@ -427,7 +512,7 @@ impl DiscSignal {
             disc.peak = disc.peak.max(e);
             let w = e - background.floor;
             if w > 0.0 {
-                let acc = disc.acc;
+                let (w, acc) = (w * agreement, disc.acc);
                 disc.acc = (acc.0 + w, acc.1 + w * x as f64, acc.2 + w * y as f64);
             }
         }
@@ -436,7 +521,7 @@ impl DiscSignal {
 
     /// The signal without a glint's pixels among the clipped ones.
     fn without(mut self, glint: &Glint) -> DiscSignal {
-        self.saturated.retain(|&(x, y)| !glint.contains(&(x as i64, y as i64)));
+        self.saturated.retain(|&(x, y, _)| !glint.contains(&(x as i64, y as i64)));
         self
     }
 
@@ -444,8 +529,9 @@ impl DiscSignal {
     fn centroid_with_core(self, floor: f64) -> Option<Vec2> {
         let core_w = (self.peak - floor).max(1.0);
         let mut acc = self.acc;
-        for (x, y) in self.saturated {
-            acc = (acc.0 + core_w, acc.1 + core_w * x, acc.2 + core_w * y);
+        for (x, y, agreement) in self.saturated {
+            let w = core_w * agreement;
+            acc = (acc.0 + w, acc.1 + w * x, acc.2 + w * y);
         }
         if acc.0 <= 0.0 {
             return None;
