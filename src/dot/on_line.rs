@@ -652,25 +652,35 @@ fn search_pieces(
         let polygon = vec![a - s - t, b + s - t, b + s + t, a - s + t];
         let region = SearchRegion { polygon, band: Some((line.to_vec(), hw)), squares: Vec::new() };
         for c in find_dot_candidates(img, &region, params, PIECE_CANDIDATES) {
-            // Neighbouring pieces overlap: one blob, one candidate. A spot split from a blob
-            // lies inside its parent's blob, so near a whole blob it is the same spot only
-            // when that blob is centred on it (another piece's edge cut the larger blob
-            // away there).
-            let same = |f: &DotCandidate| {
-                let d = (f.pixel - c.pixel).norm();
-                if f.split_from_blob == c.split_from_blob {
-                    d < 2.0 * f.radius_px.max(c.radius_px).max(2.0)
-                } else {
-                    d < 2.0 * f.radius_px.min(c.radius_px).max(2.0)
-                }
-            };
-            if !found.iter().any(same) {
-                found.push(c);
-            }
+            keep_stronger(&mut found, c);
         }
     }
     found.sort_by(|a, b| b.snr.total_cmp(&a.snr));
     found
+}
+
+/// Adds `c` to `found` unless it is a blob already there, measured again by an overlapping
+/// piece: one blob, one candidate, the one of the higher SNR. Pieces measure a blob against
+/// their own background and noise, so one may see a dot and a tuft beside it as one ragged
+/// blob and the next as two; keeping the first measure made the answer hang on the order
+/// of the pieces, and a dot 13 px from a tuft it merged with in the first piece was lost in
+/// every later one (held-out target-less 1000103/01). A spot split from a blob lies inside
+/// its parent's blob, so near a whole blob it is the same spot only when that blob is
+/// centred on it (another piece's edge cut the larger blob away there).
+fn keep_stronger(found: &mut Vec<DotCandidate>, c: DotCandidate) {
+    let same = |f: &DotCandidate| {
+        let d = (f.pixel - c.pixel).norm();
+        if f.split_from_blob == c.split_from_blob {
+            d < 2.0 * f.radius_px.max(c.radius_px).max(2.0)
+        } else {
+            d < 2.0 * f.radius_px.min(c.radius_px).max(2.0)
+        }
+    };
+    match found.iter().position(same) {
+        None => found.push(c),
+        Some(k) if c.snr > found[k].snr => found[k] = c,
+        Some(_) => {}
+    }
 }
 
 #[cfg(test)]
@@ -694,6 +704,28 @@ mod tests {
     /// against the widest beam there, a clipped one may bloom to 1.85x the widest unclipped
     /// blob, and to 3.5x when its own channel clips a dot's width beyond its white core,
     /// never further; a wide blob at the threshold with a narrow core is a dot.
+    /// Two pieces' measures of one place: a dot (SNR 500) and, 13 px away, the ragged blob
+    /// it merged into with a tuft (SNR 300, 15 px); a third, far blob. Whichever piece is
+    /// searched first, the dot's measure is kept and the far blob too.
+    #[test]
+    fn of_two_measures_of_one_blob_the_stronger_is_kept_whatever_the_order() {
+        let blob = |x: f64, y: f64, radius_px: f64, snr: f64| DotCandidate {
+            radius_px,
+            snr,
+            ..crate::dot::on_target::hand_candidate(Vec2::new(x, y))
+        };
+        let (dot, merged, far) =
+            (blob(100.0, 100.0, 4.0, 500.0), blob(100.0, 113.0, 15.0, 300.0), blob(300.0, 100.0, 5.0, 50.0));
+        for order in [[&merged, &dot, &far], [&dot, &merged, &far], [&far, &merged, &dot]] {
+            let mut found = Vec::new();
+            for c in order {
+                keep_stronger(&mut found, c.clone());
+            }
+            found.sort_by(|a, b| b.snr.total_cmp(&a.snr));
+            assert_eq!(found, vec![dot.clone(), far.clone()]);
+        }
+    }
+
     #[test]
     fn band_pieces_are_cut_from_the_far_end_and_a_short_near_rest_joins_its_neighbour() {
         // A straight line 1 000 px long, sampled unevenly as the log-spaced line is.
