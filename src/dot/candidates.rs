@@ -1819,10 +1819,10 @@ mod tests {
 
     /// A clipped dot of 150 levels on a cyan fish whose dark stripe begins 2 px below the
     /// dot's centre: the fringe its colour is read on lies on both. Against the fish alone
-    /// (the ring's cluster nearer the blob) the stripe's pixels read as a deficit, the
-    /// excess came out (-2, -10, -30) levels and the dot was lost (held-out target-less
-    /// 1000104/10); each pixel read against its own surface, told by its colour across the
-    /// laser's, gives back the laser's hue.
+    /// (the ring's cluster nearer the blob) the stripe's pixels read as a deficit and the
+    /// dot scores no colour (no candidate here; (-2, -10, -30) levels of excess on held-out
+    /// target-less 1000104/10, lost); each pixel read against its own surface, told by its
+    /// colour across the laser's, gives back the laser's hue.
     #[test]
     fn a_clipped_dot_on_a_stripe_s_edge_is_read_against_each_surface_it_lies_on() {
         let (w, h) = (200usize, 150usize);
