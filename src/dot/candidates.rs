@@ -1845,8 +1845,9 @@ mod tests {
     /// surface that brightens by 0.3 levels per pixel across it. Smoothed by a filter much
     /// narrower than the disc, its top stays flat and the peak lands wherever the gradient
     /// and the grain tip it: 3.3 px off on held-out target-less 1000100/17, refused as off
-    /// the line, and 3.1 px here. A filter the disc's own size peaks within 0.7 px of its
-    /// centre (the gradient the ring's background model leaves still tips it a little).
+    /// the line, and 3.1 px here. A filter wide enough to reach the disc's edge peaks within
+    /// 0.5 px of its centre (the gradient the ring's background model leaves still tips it a
+    /// little).
     #[test]
     fn a_large_flat_dot_is_centred_on_its_disc_whatever_the_surface_s_gradient() {
         let (w, h) = (200usize, 150usize);

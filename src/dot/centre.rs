@@ -540,13 +540,14 @@ impl DiscSignal {
     }
 }
 
-/// Widest Gaussian [`matched_filter_peak`] smooths with, 1 sigma in pixels: 0.7 of the
-/// half-peak radius of the largest dot, a beam of 2.5 mm radius spreading 0.75 mrad seen
-/// from 0.5 m by a 2 915 px focal length (17 px). Capped at 4 px, the filter was far
-/// narrower than a near unclipped dot, whose flat top it left flat: the peak fell where the
-/// surface's gradient and grain tipped it, 3.3 px off a disc of 15.5 px (held-out
-/// target-less 1000100/17), and the dot was refused as off the line.
-const MAX_FILTER_SIGMA_PX: f64 = 12.0;
+/// Widest Gaussian [`matched_filter_peak`] smooths with, 1 sigma in pixels. Capped at 4 px,
+/// the filter was far narrower than a near unclipped dot, whose flat top it left flat: the
+/// peak fell where the surface's gradient and grain tipped it, 3.3 px off a disc of 15.5 px
+/// (held-out target-less 1000100/17), and the dot was refused as off the line. At 8 px a
+/// 15 px disc is centred within 0.5 px (0.7 of the largest dot's half-peak radius, 17 px
+/// for a 2.5 mm beam spreading 0.75 mrad seen from 0.5 m, would be 12 px, centred no
+/// better and costing the along-line search's slowest photo 38-48 ms against 32 ms before).
+const MAX_FILTER_SIGMA_PX: f64 = 8.0;
 
 /// Location of the peak of the dot signal `signal(G, B)` smoothed by a Gaussian the size of
 /// the dot, within `reach` of `c`, to sub-pixel by a quadratic through the peak's
