@@ -1489,15 +1489,13 @@ fn surface_background(
         let along: f64 = (0..3).map(|c| p[c] * laser_rgb[c]).sum();
         [0, 1, 2].map(|c| p[c] - along * laser_rgb[c])
     };
-    let apart = |p: [f64; 3], q: [f64; 3]| {
-        let (p, q) = (across(p), across(q));
-        (0..3).map(|c| (p[c] - q[c]).powi(2)).sum::<f64>().sqrt()
-    };
-    let by_pixel = apart(d.mean_rgb, b.mean_rgb) >= SURFACE_ACROSS_LASER_LEVELS
+    let apart = |p: [f64; 3], q: [f64; 3]| (0..3).map(|c| (p[c] - q[c]).powi(2)).sum::<f64>().sqrt();
+    let (d_across, b_across) = (across(d.mean_rgb), across(b.mean_rgb));
+    let by_pixel = apart(d_across, b_across) >= SURFACE_ACROSS_LASER_LEVELS
         && dark.len().min(bright.len()) >= 12
         && !scored.is_empty();
     let bright_share = if by_pixel {
-        let on_bright = scored.iter().filter(|&&p| apart(p, b.mean_rgb) < apart(p, d.mean_rgb)).count();
+        let on_bright = scored.iter().map(|&p| across(p)).filter(|&p| apart(p, b_across) < apart(p, d_across)).count();
         on_bright as f64 / scored.len() as f64
     } else {
         let mut near = near.to_vec();
