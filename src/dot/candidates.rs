@@ -1657,6 +1657,11 @@ mod tests {
         dot.unwrap_or_else(|| panic!("no candidate at the dot: {c:?}"))
     }
 
+    /// A surface's colour lit by `dot` levels of a laser of colour `laser`, with `noise`.
+    fn lit(surface: [f64; 3], laser: [f64; 3], dot: f64, noise: f64) -> [f64; 3] {
+        [0, 1, 2].map(|c| surface[c] + laser[c] * dot + noise)
+    }
+
     /// A fixed grain of -2.4 to +2.4 levels.
     fn grain(x: usize, y: usize) -> f64 {
         (((x * 31 + y * 17) % 7) as f64 - 3.0) * 0.8
@@ -1830,7 +1835,7 @@ mod tests {
             let dot = spot(x, y, truth, 150.0, 2.0);
             let noise = grain(x, y);
             let [r, g, b] = if (y as f64) < truth.y + 2.0 { [55.0, 195.0, 205.0] } else { [30.0, 86.0, 87.0] };
-            [r + laser[0] * dot + noise, g + laser[1] * dot + noise, b + laser[2] * dot + noise]
+            lit([r, g, b], laser, dot, noise)
         });
         let p = DotDetectorParams::default();
         let dot = candidate_at(&data, (w, h), truth, &p);
@@ -1857,11 +1862,7 @@ mod tests {
             let dot = 50.0 * (15.0 - d + 0.5).clamp(0.0, 1.0);
             let slope = 0.3 * (x as f64 + 0.5 * y as f64);
             let noise = grain(x, y);
-            [
-                90.0 + 0.3 * slope + laser[0] * dot + noise,
-                110.0 + slope + dot + noise,
-                80.0 + 0.2 * slope + laser[2] * dot + noise,
-            ]
+            lit([90.0 + 0.3 * slope, 110.0 + slope, 80.0 + 0.2 * slope], laser, dot, noise)
         });
         let dot = candidate_at(&data, (w, h), truth, &DotDetectorParams::default());
         assert!((dot.pixel - truth).norm() < 1.0, "{:?} against {truth:?}", dot.pixel);
@@ -1881,7 +1882,7 @@ mod tests {
             let stripe = if x >= 108 { 1.0 } else { 0.0 };
             let noise = grain(x, y);
             let [r, g, b] = [40.0 + 2.0 * stripe, 110.0 + 14.0 * stripe, 60.0 + 18.0 * stripe];
-            [r + laser[0] * dot + noise, g + laser[1] * dot + noise, b + laser[2] * dot + noise]
+            lit([r, g, b], laser, dot, noise)
         });
         let p = DotDetectorParams::default();
         let dot = candidate_at(&data, (w, h), truth, &p);
@@ -1914,7 +1915,7 @@ mod tests {
             let under = spot(x, y, truth, hollow.0, hollow.1);
             let noise = grain(x, y);
             let [r, g, b] = [30.0, 120.0 - 0.5 * under, 140.0 - under];
-            [r + laser[0] * d + noise, g + laser[1] * d + noise, b + laser[2] * d + noise]
+            lit([r, g, b], laser, d, noise)
         });
         let p = DotDetectorParams::default();
         let found = candidate_at(&data, (w, h), truth, &p);
