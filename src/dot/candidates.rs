@@ -115,6 +115,10 @@ pub struct DotCandidate {
     /// 1-sigma uncertainty of `colour_angle_rad`, radians: the map's noise over the scored
     /// pixels, and for a clipped blob at least [`CLIPPED_CHROMA_SIGMA_RAD`].
     pub colour_angle_sigma_rad: f64,
+    /// How far the white part of its excess (`excess_rgb`) falls short of the laser's,
+    /// radians ([`LaserColourModel::white_deficit_rad`]): a pigment's darkens a channel the
+    /// laser's light would lift.
+    pub white_deficit_rad: f64,
     /// How far its half-peak outline departs from an ellipse, as a share of its radius
     /// ([`super::outline::outline_roughness`]); `None` when not measured (a blob too small
     /// or too faint for its outline to mean anything, or clipped at its centre). 1 when a
@@ -1172,6 +1176,7 @@ fn blob_candidate(
         } else {
             score.angle_sigma_rad
         },
+        white_deficit_rad: params.colour.white_deficit_rad(colour.excess_rgb),
         outline_roughness,
         split_from_blob: false,
         enclosed_by: None,

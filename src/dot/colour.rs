@@ -299,9 +299,57 @@ impl LaserColourModel {
     /// together: over [`OFF_COLOUR_SIGMAS`] is off-colour. `None` under the prior, which
     /// judges no blob.
     pub fn angle_sigmas(&self, angle_rad: f64, angle_sigma_rad: f64) -> Option<f64> {
-        matches!(self.source, ColourSource::Learned { .. }).then(|| angle_rad / self.spread_rad.hypot(angle_sigma_rad))
+        self.colour_sigmas(angle_rad, 0.0, angle_sigma_rad)
+    }
+
+    /// A blob's colour in sigmas of this laser's spread and the blob's own noise: its
+    /// chroma angle and its white part's deficit ([`Self::white_deficit_rad`]), the deficit
+    /// judged against [`WHITE_PART_SPREAD_RATIO`] times the spread. `None` under the prior.
+    pub fn colour_sigmas(&self, angle_rad: f64, white_deficit_rad: f64, angle_sigma_rad: f64) -> Option<f64> {
+        matches!(self.source, ColourSource::Learned { .. }).then(|| {
+            let s = self.spread_rad.hypot(angle_sigma_rad);
+            (angle_rad / s).hypot(white_deficit_rad / (WHITE_PART_SPREAD_RATIO * s))
+        })
+    }
+
+    /// How far an excess's (R, G, B levels) white part falls short of the laser's, radians:
+    /// its elevation above the chroma plane (the angle between the excess and its chroma)
+    /// less the laser's, 0 when it reaches it. Light only adds: a dot lifts every channel in
+    /// the laser's proportions (on a coloured surface, times the surface's colour), and its
+    /// excess keeps the laser's white part. A pigment (an algae tuft, a fin) takes the
+    /// place of the surface and darkens the channels it absorbs: its excess, green up and red
+    /// and blue down, has a chroma near a green laser's and a white part well below it. A
+    /// camera whose colour matrix takes red away where green rises makes its dots' white
+    /// part lower, and its learned colour with it. More white than the laser's is no
+    /// evidence against a dot (a clipped or blooming core whitens); `0` without an excess.
+    pub fn white_deficit_rad(&self, excess: [f64; 3]) -> f64 {
+        if dot(excess, excess) < 1e-12 {
+            return 0.0;
+        }
+        (elevation_rad(self.rgb) - elevation_rad(excess)).max(0.0)
     }
 }
+
+/// Angle of an RGB vector above the plane of chroma (its part orthogonal to white), radians:
+/// positive when it brightens on the whole, negative when it darkens.
+fn elevation_rad(v: [f64; 3]) -> f64 {
+    let w = dot(v, WHITE);
+    let chroma = sub(v, scale(WHITE, w));
+    w.atan2(dot(chroma, chroma).sqrt())
+}
+
+/// How much wider a laser's white part ([`LaserColourModel::white_deficit_rad`]) spreads
+/// than its chroma, in units of the learned spread. A dot's white part moves with the
+/// surface's colour (a dot on a blue fish loses red and green) and with the tone curve at
+/// the background's level in each channel, more than its chroma does. On the target-less
+/// sets 1000098-153 (calibrations fitted by this code; 3 384 blobs on the line), the true
+/// dots' elevation below the learned colour's had a median of 2 degrees and 5 of 325
+/// unclipped dots lay beyond 25 degrees, where 15 of the 23 unclipped blobs wrongly taken
+/// for the dot did. Judged together with the chroma angle ([`OFF_COLOUR_SIGMAS`] of both),
+/// at 1.67 it refused 3 true dots' blobs (none of them taken), 16 of the 31 wrong dots and
+/// 89 other plausible blobs that had passed the chroma gate; at 1.33, 7 true blobs (one
+/// taken) and 19 wrong; at 1, 9 true (two taken) and 19 wrong.
+pub const WHITE_PART_SPREAD_RATIO: f64 = 1.67;
 
 /// One accepted dot's colour as a calibration learns from it.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -607,5 +655,32 @@ mod tests {
         let white = LaserColour { rgb: [0.577, 0.577, 0.577], spread_rad: 0.1, dots: 5 };
         assert!(LaserColourModel::from_unit(&white).is_none());
         assert_eq!(LaserColourModel::from_unit_or_prior(Some(&white)).source, ColourSource::Prior);
+    }
+
+    /// Seed 1000146's learned colour (a yellow-green laser, 9 degrees' spread) and the algae
+    /// tuft taken for its dot on a laser-off photo (1000146/13): green up 76 levels, blue
+    /// down 38. Its chroma lies 20 degrees off, within the spread's 3 sigmas; its white part
+    /// 43 degrees short of the laser's.
+    #[test]
+    fn a_pigment_that_darkens_is_off_colour_by_its_white_part_and_a_dot_on_a_coloured_fish_is_not() {
+        let m = LaserColourModel::from_unit(&LaserColour { rgb: [0.578, 0.810, 0.101], spread_rad: 0.156, dots: 8 })
+            .expect("a green laser");
+        let tuft = [2.5, 75.6, -37.8];
+        let sigma = 0.14f64.to_radians();
+        let (angle, deficit) = (m.angle_rad(tuft), m.white_deficit_rad(tuft));
+        assert!((angle.to_degrees() - 20.8).abs() < 0.5 && (deficit.to_degrees() - 43.5).abs() < 0.5, "{angle} {deficit}");
+        assert!(!m.off_colour(angle, sigma), "its chroma alone passes");
+        let z = m.colour_sigmas(angle, deficit, sigma).expect("learned");
+        assert!(beyond_colour_gate(Some(z)) && z > 3.5, "{z}");
+        // The laser's light on a bluish fish (reflecting 0.3, 0.5, 0.9 of R, G, B): its
+        // chroma turns as far as the tuft's, its white part hardly moves.
+        let on_fish = [58.0 * 0.3, 81.0 * 0.5, 10.0 * 0.9];
+        let (angle, deficit) = (m.angle_rad(on_fish), m.white_deficit_rad(on_fish));
+        assert!(deficit < 0.01, "{deficit}");
+        assert!(!beyond_colour_gate(m.colour_sigmas(angle, deficit, sigma)), "{angle}");
+        // More white than the laser's (a blooming core) tells nothing against a dot.
+        assert_eq!(m.white_deficit_rad([80.0, 90.0, 60.0]), 0.0);
+        assert_eq!(m.white_deficit_rad([0.0; 3]), 0.0);
+        assert_eq!(LaserColourModel::green_prior().colour_sigmas(angle, 1.0, sigma), None, "the prior judges none");
     }
 }

@@ -200,8 +200,9 @@ pub struct LineCandidate {
     pub misfit: Option<Refusal>,
     /// Found by the second, more sensitive look.
     pub sensitive: bool,
-    /// Its chroma angle from the unit's learned laser colour in sigmas of the colour's
-    /// spread and the blob's own noise; `None` under the prior.
+    /// How far its colour lies from the unit's learned laser colour (its chroma angle and
+    /// its white part's deficit, [`crate::dot::colour::LaserColourModel::colour_sigmas`]) in sigmas of the
+    /// colour's spread and the blob's own noise; `None` under the prior.
     pub colour_sigmas: Option<f64>,
     /// The photo's width over 4000 px. A matched filter's SNR grows with a blob's linear
     /// size, so the same scene photographed 1000 px wide gives every blob a quarter of
@@ -493,8 +494,11 @@ pub fn judge_candidate(
     // The band reaches past the line's ends: a blob there implies a depth outside the search.
     let (near, far) = search.depths_m;
     let near = if candidate.saturated_core { near.min(CLIPPED_NEAR_M) } else { near };
-    let colour_sigmas =
-        search.detector.colour.angle_sigmas(candidate.colour_angle_rad, candidate.colour_angle_sigma_rad);
+    let colour_sigmas = search.detector.colour.colour_sigmas(
+        candidate.colour_angle_rad,
+        candidate.white_deficit_rad,
+        candidate.colour_angle_sigma_rad,
+    );
     let off_colour = beyond_colour_gate(colour_sigmas);
     let misfit = if gate.depth_m < near || gate.depth_m > far {
         Some(Refusal::OutOfRange)
@@ -1034,6 +1038,7 @@ mod tests {
     /// Under a learned colour of 4 degrees' spread, a blob refused 20 degrees off the laser's
     /// colour is a look-alike and withholds a weaker dot beside it; one 40 degrees off (over
     /// [`UNLIKE_COLOUR_RATIO`] times the 12-degree limit) is no kin of the dot and does not.
+    /// A blob of the laser's chroma whose white part falls 25 degrees short is refused too.
     #[test]
     fn a_blob_far_off_the_lasers_colour_is_no_look_alike() {
         let (camera, laser) = (tg6_camera(), fsl_laser());
@@ -1042,7 +1047,7 @@ mod tests {
         let colour = crate::dot::colour::LaserColourModel::from_unit(&unit).expect("a green laser");
         let detector = DotDetectorParams { colour, ..DotDetectorParams::default() };
         let search = LineSearch { detector, ..LineSearch::default() };
-        let at = |z: f64, angle_deg: f64, snr: f64| {
+        let with_white = |z: f64, angle_deg: f64, white_deficit_deg: f64, snr: f64| {
             let pixel = camera.project(&laser.point_at_depth(z)).expect("in front of the camera");
             let c = DotCandidate {
                 radius_px: 4.0,
@@ -1051,10 +1056,12 @@ mod tests {
                 colour_score: snr,
                 colour_angle_rad: angle_deg.to_radians(),
                 colour_angle_sigma_rad: 0.5f64.to_radians(),
+                white_deficit_rad: white_deficit_deg.to_radians(),
                 ..crate::dot::on_target::hand_candidate(pixel)
             };
             judge_candidate(&camera, &laser, &search, c, false).expect("on the line")
         };
+        let at = |z: f64, angle_deg: f64, snr: f64| with_white(z, angle_deg, 0.0, snr);
         let dot = at(2.0, 2.0, 50.0);
         assert!(dot.plausible() && !dot.unlike_colour(), "{dot:?}");
         let kin = at(1.2, 20.0, 200.0);
@@ -1064,6 +1071,9 @@ mod tests {
         assert_eq!((unlike.misfit, unlike.unlike_colour()), (Some(Refusal::OffColour), true));
         let found = choose(&[dot.clone(), unlike], 80.0).expect("a pigment far off the laser's colour");
         assert_eq!(found.pixel, dot.candidate.pixel);
+        assert!(with_white(1.2, 2.0, 10.0, 200.0).plausible(), "10 degrees short: within 3 sigmas");
+        let darkening = with_white(1.2, 2.0, 25.0, 200.0);
+        assert_eq!(darkening.misfit, Some(Refusal::OffColour));
     }
 
     /// Rendered 4000x3000 scenes near and far, with glints and a green reflection elsewhere:

@@ -224,6 +224,7 @@ fn candidate_table(page: &mut Page, r: &CheckReport) {
                 format!("{:.1} / {:.1}", c.offset_px, c.sigma_px).into(),
                 format!("{:.0}", c.snr).into(),
                 format!("{:.0} +- {:.0}", c.colour_angle_deg, c.colour_angle_sigma_deg.max(0.5)).into(),
+                format!("{:.0}", c.white_deficit_deg).into(),
                 c.outline_roughness.map_or("-".into(), |o| format!("{o:.3}")).into(),
                 verdict,
             ]);
@@ -241,10 +242,11 @@ fn candidate_table(page: &mut Page, r: &CheckReport) {
             "offset / sigma (px)",
             "SNR",
             "colour angle (deg)",
+            "white part short (deg)",
             "outline roughness",
             "verdict",
         ],
-        &[false, true, true, true, true, true, true, false],
+        &[false, true, true, true, true, true, true, true, false],
         rows,
     );
 }
