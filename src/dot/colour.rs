@@ -668,7 +668,10 @@ mod tests {
         let tuft = [2.5, 75.6, -37.8];
         let sigma = 0.14f64.to_radians();
         let (angle, deficit) = (m.angle_rad(tuft), m.white_deficit_rad(tuft));
-        assert!((angle.to_degrees() - 20.8).abs() < 0.5 && (deficit.to_degrees() - 43.5).abs() < 0.5, "{angle} {deficit}");
+        assert!(
+            (angle.to_degrees() - 20.8).abs() < 0.5 && (deficit.to_degrees() - 43.5).abs() < 0.5,
+            "{angle} {deficit}"
+        );
         assert!(!m.off_colour(angle, sigma), "its chroma alone passes");
         let z = m.colour_sigmas(angle, deficit, sigma).expect("learned");
         assert!(beyond_colour_gate(Some(z)) && z > 3.5, "{z}");
