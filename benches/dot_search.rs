@@ -1,5 +1,6 @@
 //! `cargo bench --bench dot_search [-- DIR...]`: the dot search's time per photo on one core,
-//! and how the colour score separates true dots from each impostor kind (issue 14).
+//! and how the colour score, the chroma angle and the white part separate true dots from each
+//! impostor kind (issue 14).
 //!
 //! For every `photo_NN.jpg` with its `photo_NN.truth.json` in the given set folders (default:
 //! the held-out sets in /work/cache/heldout, docs/scene-variety.md), the whole frame is
@@ -7,7 +8,8 @@
 //! covers only the target's image, the target-less search a band along the laser), then
 //! searched again without the colour floor so that every blob is scored. Each blob is
 //! labelled by the truth: the dot (within 2 px), the impostor it lies on, or texture. Prints the median and worst search time and a
-//! histogram of colour scores and of outline roughness per label; then the time of the search `check` and `measure`
+//! histogram of colour scores and of outline roughness per label (and, against a unit's learned
+//! colour, of chroma angle and white-part deficit); then the time of the search `check` and `measure`
 //! run, along the set's calibrated line. Asserts nothing about time.
 
 use fslcal::dot::candidates::{find_dot_candidates, ChannelOrder, ColourView, DotDetectorParams, SearchRegion};
@@ -66,13 +68,29 @@ fn rough_bin(r: Option<f64>) -> usize {
 
 /// How the half-peak outline's roughness separates true dots from each impostor kind.
 fn outline_histogram(hist: &BTreeMap<String, [usize; ROUGH_EDGES.len()]>) {
+    table(
+        "outline roughness (share of the radius off the best ellipse; `check` refuses above 0.10) of every blob the search returns, by what the truth says it is",
+        &["not measured", "< 0.03", "0.03-0.06", "0.06-0.10", "0.10-0.2", ">= 0.2"],
+        hist,
+    );
+}
+
+/// Upper edges of the colour angle bins, degrees; the first bin is exactly 0.
+const ANGLE_EDGES_DEG: [f64; 8] = [0.0, 5.0, 10.0, 20.0, 30.0, 45.0, 90.0, f64::INFINITY];
+const ANGLE_HEADS: [&str; 8] = ["0", "0-5", "5-10", "10-20", "20-30", "30-45", "45-90", ">= 90"];
+
+fn angle_bin(deg: f64) -> usize {
+    ANGLE_EDGES_DEG.iter().position(|&e| deg <= e).unwrap_or(ANGLE_EDGES_DEG.len() - 1)
+}
+
+/// A histogram per truth label, one row each, as a Markdown table under `title`.
+fn table<const N: usize>(title: &str, heads: &[&str], hist: &BTreeMap<String, [usize; N]>) {
     if hist.is_empty() {
         return;
     }
-    println!("
-outline roughness (share of the radius off the best ellipse; `check` refuses above 0.10) of every blob the search returns, by what the truth says it is");
-    println!("| blob | not measured | < 0.03 | 0.03-0.06 | 0.06-0.10 | 0.10-0.2 | >= 0.2 |");
-    println!("|---|---|---|---|---|---|---|");
+    println!("\n{title}");
+    println!("| blob | {} |", heads.join(" | "));
+    println!("|---|{}", "---|".repeat(heads.len()));
     for (k, counts) in hist {
         println!("| {k} | {} |", counts.iter().map(|c| c.to_string()).collect::<Vec<_>>().join(" | "));
     }
@@ -111,6 +129,9 @@ fn main() {
     let mut hist: BTreeMap<String, [usize; EDGES.len() - 1]> = BTreeMap::new();
     let mut hist_learned = hist.clone();
     let mut outlines: BTreeMap<String, [usize; ROUGH_EDGES.len()]> = BTreeMap::new();
+    // Against a learned colour only: the prior judges no blob's colour.
+    let mut chroma_angles: BTreeMap<String, [usize; ANGLE_EDGES_DEG.len()]> = BTreeMap::new();
+    let mut white_deficits = chroma_angles.clone();
     for path in &list {
         let Ok(img) = image::open(path) else { continue };
         let img = img.to_rgb8();
@@ -146,6 +167,12 @@ fn main() {
         for c in &found {
             let kind = label(&truth, [c.pixel.x, c.pixel.y]);
             outlines.entry(kind.clone()).or_insert([0; ROUGH_EDGES.len()])[rough_bin(c.outline_roughness)] += 1;
+            if colour.source != ColourSource::Prior {
+                chroma_angles.entry(kind.clone()).or_insert([0; ANGLE_EDGES_DEG.len()])
+                    [angle_bin(c.colour_angle_rad.to_degrees())] += 1;
+                white_deficits.entry(kind.clone()).or_insert([0; ANGLE_EDGES_DEG.len()])
+                    [angle_bin(c.white_deficit_rad.to_degrees())] += 1;
+            }
             scored.entry(kind).or_insert([0; EDGES.len() - 1])[bin(c.colour_score)] += 1;
         }
     }
@@ -154,6 +181,16 @@ fn main() {
         histogram(&hist_learned, "the laser colour the unit's own calibration learned");
     }
     outline_histogram(&outlines);
+    table(
+        "chroma angle from the learned laser colour (degrees; `check` refuses beyond 3 sigmas of its spread and the blob's noise) of every blob the search returns, by what the truth says it is",
+        &ANGLE_HEADS,
+        &chroma_angles,
+    );
+    table(
+        "white part short of the learned laser colour's (degrees; judged with the chroma angle at 1.67 times the spread) of every blob the search returns, by what the truth says it is",
+        &ANGLE_HEADS,
+        &white_deficits,
+    );
     if !line_ms.is_empty() {
         line_ms.sort_by(f64::total_cmp);
         println!(
@@ -191,10 +228,6 @@ fn report(list: &[PathBuf], times_ms: &[(f64, u32, u32)], hist: &Histogram, colo
 type Histogram = BTreeMap<String, [usize; EDGES.len() - 1]>;
 
 fn histogram(hist: &Histogram, colour: &str) {
-    if hist.is_empty() {
-        return;
-    }
-    println!("\ncolour score (sigmas) along {colour} of every blob the search returns, by what the truth says it is");
     let heads: Vec<String> = EDGES
         .windows(2)
         .map(|w| match (w[0].is_finite(), w[1].is_finite()) {
@@ -203,9 +236,10 @@ fn histogram(hist: &Histogram, colour: &str) {
             _ => format!("{}-{}", w[0], w[1]),
         })
         .collect();
-    println!("| blob | {} |", heads.join(" | "));
-    println!("|---|{}", "---|".repeat(heads.len()));
-    for (k, counts) in hist {
-        println!("| {k} | {} |", counts.iter().map(|c| c.to_string()).collect::<Vec<_>>().join(" | "));
-    }
+    let heads: Vec<&str> = heads.iter().map(String::as_str).collect();
+    table(
+        &format!("colour score (sigmas) along {colour} of every blob the search returns, by what the truth says it is"),
+        &heads,
+        hist,
+    );
 }
