@@ -153,7 +153,7 @@ fn main() {
         if let Some(cal) = &cal {
             let t = Instant::now();
             let _ = find_dot_on_laser_line(&view, &cal.camera, &cal.laser, &cal.line_search());
-            line_ms.push(t.elapsed().as_secs_f64() * 1e3);
+            line_ms.push((t.elapsed().as_secs_f64() * 1e3, path.clone()));
         }
         // Scores along the colour the unit's calibration learned, where it has one.
         let colour = cal.map_or(params.colour, |c| c.dot_detector().colour);
@@ -191,13 +191,13 @@ fn main() {
         &ANGLE_HEADS,
         &white_deficits,
     );
-    if !line_ms.is_empty() {
-        line_ms.sort_by(f64::total_cmp);
+    if let Some(worst) = line_ms.iter().max_by(|a, b| a.0.total_cmp(&b.0)).map(|w| w.1.display().to_string()) {
+        line_ms.sort_by(|a, b| a.0.total_cmp(&b.0));
         println!(
-            "\ndot search along the calibrated line (as check and measure run it), one thread, {} photos: median {:.1} ms, worst {:.1} ms (target < 40 ms)",
+            "\ndot search along the calibrated line (as check and measure run it), one thread, {} photos: median {:.1} ms, worst {:.1} ms ({worst}) (target < 40 ms)",
             line_ms.len(),
-            line_ms[line_ms.len() / 2],
-            line_ms[line_ms.len() - 1]
+            line_ms[line_ms.len() / 2].0,
+            line_ms[line_ms.len() - 1].0
         );
     }
 }
