@@ -116,7 +116,7 @@ pub struct DotCandidate {
     /// pixels, and for a clipped blob at least [`CLIPPED_CHROMA_SIGMA_RAD`].
     pub colour_angle_sigma_rad: f64,
     /// How far the white part of its excess (`excess_rgb`) falls short of the laser's,
-    /// radians ([`LaserColourModel::white_deficit_rad`]): a pigment's darkens a channel the
+    /// radians ([`LaserColourModel::white_deficit_rad`]): a pigment darkens a channel the
     /// laser's light would lift.
     pub white_deficit_rad: f64,
     /// How far its half-peak outline departs from an ellipse, as a share of its radius

@@ -345,10 +345,11 @@ fn elevation_rad(v: [f64; 3]) -> f64 {
 /// sets 1000098-153 (calibrations fitted by this code; 3 384 blobs on the line), the true
 /// unclipped dots' white part fell a median of 2 degrees short of the learned colour's and
 /// 5 of 304 fell over 25 degrees short, where 13 of the 22 unclipped blobs wrongly taken for
-/// the dot did (their chroma: a median of 4.3 degrees off, the true dots' 3.8). Judged together with the chroma angle ([`OFF_COLOUR_SIGMAS`] of both),
-/// at 1.67 it refused 3 true dots' blobs (none of them taken), 16 of the 31 wrong dots and
-/// 89 other plausible blobs that had passed the chroma gate; at 1.33, 7 true blobs (one
-/// taken) and 19 wrong; at 1, 9 true (two taken) and 19 wrong.
+/// the dot did (their chroma: a median of 4.3 degrees off, the true dots' 3.8). Judged
+/// together with the chroma angle ([`OFF_COLOUR_SIGMAS`] of both), at 1.67 it refused 3 true
+/// dots' blobs (none of them taken), 16 of the 31 wrong dots and 89 other plausible blobs
+/// that had passed the chroma gate; at 1.33, 7 true blobs (one taken) and 19 wrong; at 1, 9
+/// true (two taken) and 19 wrong.
 pub const WHITE_PART_SPREAD_RATIO: f64 = 1.67;
 
 /// One accepted dot's colour as a calibration learns from it.

@@ -201,8 +201,9 @@ pub struct LineCandidate {
     /// Found by the second, more sensitive look.
     pub sensitive: bool,
     /// How far its colour lies from the unit's learned laser colour (its chroma angle and
-    /// its white part's deficit, [`crate::dot::colour::LaserColourModel::colour_sigmas`]) in sigmas of the
-    /// colour's spread and the blob's own noise; `None` under the prior.
+    /// its white part's deficit,
+    /// [`crate::dot::colour::LaserColourModel::colour_sigmas`]) in sigmas of the colour's
+    /// spread and the blob's own noise; `None` under the prior.
     pub colour_sigmas: Option<f64>,
     /// The photo's width over 4000 px. A matched filter's SNR grows with a blob's linear
     /// size, so the same scene photographed 1000 px wide gives every blob a quarter of
