@@ -288,18 +288,12 @@ impl LaserColourModel {
         ))
     }
 
-    /// Whether a blob's chroma lies beyond what this laser's spread and the blob's own
-    /// measurement noise explain ([`OFF_COLOUR_SIGMAS`] sigmas of both). Only a learned
-    /// colour judges: the prior spans every green laser and would refuse none of them.
+    /// Whether a blob's chroma alone lies beyond what this laser's spread and the blob's own
+    /// measurement noise explain ([`OFF_COLOUR_SIGMAS`] sigmas of both), its white part
+    /// aside ([`Self::colour_sigmas`] judges both). Only a learned colour judges: the prior
+    /// spans every green laser and would refuse none of them.
     pub fn off_colour(&self, angle_rad: f64, angle_sigma_rad: f64) -> bool {
-        beyond_colour_gate(self.angle_sigmas(angle_rad, angle_sigma_rad))
-    }
-
-    /// A blob's chroma angle in sigmas of this laser's spread and the blob's own noise
-    /// together: over [`OFF_COLOUR_SIGMAS`] is off-colour. `None` under the prior, which
-    /// judges no blob.
-    pub fn angle_sigmas(&self, angle_rad: f64, angle_sigma_rad: f64) -> Option<f64> {
-        self.colour_sigmas(angle_rad, 0.0, angle_sigma_rad)
+        beyond_colour_gate(self.colour_sigmas(angle_rad, 0.0, angle_sigma_rad))
     }
 
     /// A blob's colour in sigmas of this laser's spread and the blob's own noise: its
@@ -376,7 +370,7 @@ pub struct MeasuredColour {
 /// 25 algae tufts.
 pub const OFF_COLOUR_SIGMAS: f64 = 3.0;
 
-/// Whether a chroma angle of `sigmas` ([`LaserColourModel::angle_sigmas`]) is off the
+/// Whether a colour of `sigmas` ([`LaserColourModel::colour_sigmas`]) is off the
 /// laser's colour: beyond [`OFF_COLOUR_SIGMAS`]; never under the prior (`None`).
 pub fn beyond_colour_gate(sigmas: Option<f64>) -> bool {
     sigmas.is_some_and(|z| z > OFF_COLOUR_SIGMAS)
