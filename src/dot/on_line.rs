@@ -95,6 +95,21 @@ pub const MAX_OUTLINE_ROUGHNESS: f64 = 0.10;
 /// at 0.05 two more wrong.
 const LOOKALIKE_SHARE: f64 = 0.12;
 
+/// Sigmas of the learned colour at which a blob's colour is as likely the laser's as an
+/// impostor's that slipped through the off-colour gate, for weighing the chosen blob
+/// against the look-alikes beside it. The laser's colour falls off as a normal; an
+/// impostor's is flat over the gate: on the target-less sets 1000098-153 (every blob on the
+/// line with a learned colour, calibrations fitted by this code), the true unclipped dots
+/// outnumbered the other blobs 54 to 6 within 0.5 sigmas and 6 to 22 between 2.5 and 3, a
+/// ratio falling as `exp(-z^2 / 2)` does. Weighing the look-alikes by the chosen blob's
+/// own colour likelihood, as before, took its colour for no evidence against them: a dot
+/// 0.2 sigmas off its unit's colour was withheld beside algae 25 degrees short in white
+/// (1000143/03). On those six sets (960 photos, 661 visible dots), from the chosen blob's
+/// likelihood to a flat one at 2 sigmas: right 473 -> 481, wrong 20 -> 19 (a laser-off
+/// photo's phantom withheld); at 1 and 1.5 sigmas, 475 and 477 right; at 2.5 and 3, 485
+/// with the phantom back (20 wrong).
+const LOOKALIKE_COLOUR_SIGMAS: f64 = 2.0;
+
 /// Times the off-colour limit ([`OFF_COLOUR_SIGMAS`] sigmas of the
 /// unit's spread and the blob's noise) beyond which a blob's chroma makes it no look-alike:
 /// a tuft 30-50 degrees off a laser of 4 degrees' spread is another pigment, and one of its
@@ -236,6 +251,13 @@ impl LineCandidate {
         self.candidate
             .outline_roughness
             .map_or(1.0, |r| (-0.5 * (r.min(MAX_OUTLINE_ROUGHNESS) / OUTLINE_ROUGHNESS_SIGMA).powi(2)).exp())
+    }
+
+    /// How likely an impostor that slipped through the colour gate is to have this blob's
+    /// colour, on the scale of [`Self::colour_likelihood`]: flat
+    /// ([`LOOKALIKE_COLOUR_SIGMAS`]); 1 under the prior, which weighs no colour.
+    fn impostor_colour_likelihood(&self) -> f64 {
+        self.colour_sigmas.map_or(1.0, |_| (-0.5 * LOOKALIKE_COLOUR_SIGMAS * LOOKALIKE_COLOUR_SIGMAS).exp())
     }
 
     /// How likely the laser's light is to have its chroma (a normal in the angle's
@@ -612,12 +634,13 @@ pub fn choose(candidates: &[LineCandidate], band_half_width_px: f64) -> Result<L
         .filter(|c| c.candidate.saturated_core == best.candidate.saturated_core && !c.unlike_colour())
         .collect();
     let total: f64 = plausible.iter().map(|c| c.weight()).sum::<f64>()
-        // Look-alikes are weighed against the chosen one's look alone (its colour's and
-        // outline's likelihoods scale both sides): a dot 1.5 sigmas off its unit's colour is
-        // no less clear of a ragged tuft than before colour counted (tuning 1/08 and 7/11
-        // were withheld when the dot's colour term was set against the tuft's bare look).
+        // A look-alike of the chosen one's look and outline, of any colour within the gate
+        // (`impostor_colour_likelihood`): the chosen one's outline likelihood scales both
+        // sides, and its colour counts for it only as far as it is nearer the laser's than
+        // an impostor's is likely to be (tuning 1/08 and 7/11 were withheld when the dot's
+        // colour term was set against the tuft's bare look).
         + LOOKALIKE_SHARE
-            * best.colour_likelihood()
+            * best.impostor_colour_likelihood()
             * best.outline_likelihood()
             * lookalikes.iter().map(|c| c.lookalike_weight()).sum::<f64>()
         + NO_DOT_SNR.powf(SNR_POWER);
@@ -926,8 +949,10 @@ mod tests {
 
     /// Under a learned colour, a blob nearer the laser's colour is likelier the dot: a dot
     /// 0.3 sigmas off is clear of a stronger tuft 2.8 sigmas off that the prior could not
-    /// tell from it. A dot 1.5 sigmas off stays clear of a ragged look-alike it was clear of
-    /// before colour counted, as both are weighed by its look.
+    /// tell from it. Against a look-alike, the dot's colour counts as far as it is likelier
+    /// the laser's than an impostor's (flat, as the laser's at 2 sigmas): a dot 0.2 sigmas
+    /// off is clear of a ragged tuft half again as strong, which withholds it under the
+    /// prior and withholds a dot 2.5 sigmas off.
     #[test]
     fn the_lasers_colour_weighs_in_the_choice() {
         let dot = blob(100.0, None, 0.2);
@@ -937,14 +962,28 @@ mod tests {
         let found = choose(&[coloured(&dot, 0.3), coloured(&tuft, 2.8)], 80.0).expect("the laser's colour chooses");
         assert_eq!(found.pixel, dot.candidate.pixel);
         assert!(found.confidence > CLEAR_CONFIDENCE, "{}", found.confidence);
-        // The look-alike's 0.12 * 40^2 = 192 against the dot's 2500 by their looks, and
-        // none of them the dot (25) against its look and colour: 0.92. Set against the dot's
-        // look and colour, 2500 * exp(-1.125) = 812, it would be 0.80.
-        let ragged = with_snr(blob(300.0, Some(Refusal::Ragged), 0.2), 40.0);
-        let found = choose(&[coloured(&dot, 1.5), coloured(&ragged, 2.0)], 80.0).expect("clear of the look-alike");
-        let (offset, colour) = ((-0.02f64).exp(), (-1.125f64).exp());
-        let expected = 2500.0 * offset * colour / ((2500.0 + 192.0) * offset * colour + 25.0);
-        assert!((found.confidence - expected).abs() < 1e-9, "{} {expected}", found.confidence);
+        // The look-alike's 0.12 * 75^2 = 675 by its look: under the prior against the dot's
+        // 2500, 0.78. With a learned colour, at an impostor's colour likelihood exp(-2):
+        // 91 against the dot's 2500 * exp(-0.02), 0.96; against a dot 2.5 sigmas off,
+        // 2500 * exp(-3.125) = 110, 0.49 (25 for none of them the dot throughout).
+        let ragged = with_snr(blob(300.0, Some(Refusal::Ragged), 0.2), 75.0);
+        assert!(matches!(
+            choose(&[dot.clone(), ragged.clone()], 80.0),
+            Err(DotOnLineError::Ambiguous { lookalikes: 1, .. })
+        ));
+        let offset = (-0.02f64).exp();
+        let confidence = |z: f64| {
+            let own = 2500.0 * offset * (-0.5 * z * z).exp();
+            own / (own + 675.0 * offset * (-2.0f64).exp() + 25.0)
+        };
+        let found = choose(&[coloured(&dot, 0.2), coloured(&ragged, 2.0)], 80.0).expect("clear of the look-alike");
+        assert!((found.confidence - confidence(0.2)).abs() < 1e-9, "{} {}", found.confidence, confidence(0.2));
+        assert!(found.confidence > 0.95, "{}", found.confidence);
+        assert!(matches!(
+            choose(&[coloured(&dot, 2.5), coloured(&ragged, 2.0)], 80.0),
+            Err(DotOnLineError::Ambiguous { lookalikes: 1, .. })
+        ));
+        assert!((confidence(2.5) - 0.49).abs() < 0.01, "{}", confidence(2.5));
     }
 
     /// A blob clipped at its centre is likelier the dot than one that is not: an unclipped dot
@@ -962,15 +1001,16 @@ mod tests {
     }
 
     /// A look-alike counts less the further its chroma lies beyond the off-colour gate: a
-    /// tuft 3 sigmas off the laser's colour, stronger than the dot, withholds it (0.12 of
-    /// 60^2 = 432 against 2500: 0.85); the same tuft 6 sigmas off counts a quarter of that
-    /// (0.95, with 25 for none of them the dot).
+    /// tuft 3 sigmas off the laser's colour, twice as strong as a dot 1.5 sigmas off,
+    /// withholds it (0.12 of 100^2 at an impostor's colour likelihood exp(-2): 162 against
+    /// 2500 * exp(-1.125) = 812, 0.81 with 25 for none of them the dot); the same tuft 6
+    /// sigmas off counts a quarter of that (0.93).
     #[test]
     fn a_look_alike_counts_less_the_further_off_the_lasers_colour() {
-        let dot = LineCandidate { colour_sigmas: Some(0.0), ..blob(100.0, None, 0.0) };
+        let dot = LineCandidate { colour_sigmas: Some(1.5), ..blob(100.0, None, 0.0) };
         let tuft = |z: f64| LineCandidate {
             colour_sigmas: Some(z),
-            ..with_snr(blob(300.0, Some(Refusal::OffColour), 0.0), 60.0)
+            ..with_snr(blob(300.0, Some(Refusal::OffColour), 0.0), 100.0)
         };
         assert!(matches!(
             choose(&[dot.clone(), tuft(OFF_COLOUR_SIGMAS)], 80.0),
@@ -978,7 +1018,10 @@ mod tests {
         ));
         let found = choose(&[dot.clone(), tuft(2.0 * OFF_COLOUR_SIGMAS)], 80.0).expect("clear of a far-off tuft");
         assert_eq!(found.pixel, dot.candidate.pixel);
-        assert!((found.confidence - 2500.0 / 2633.0).abs() < 1e-9, "{}", found.confidence);
+        let own = 2500.0 * (-1.125f64).exp();
+        let expected = own / (own + 1200.0 * (-2.0f64).exp() / 4.0 + 25.0);
+        assert!((found.confidence - expected).abs() < 1e-9, "{} {expected}", found.confidence);
+        assert!((found.confidence - 0.93).abs() < 0.005, "{}", found.confidence);
     }
 
     /// A lone plausible blob is the dot only when it is clearly likelier than none of the
