@@ -98,10 +98,10 @@ const LOOKALIKE_SHARE: f64 = 0.12;
 /// Sigmas of the learned colour at which a blob's colour is as likely the laser's as an
 /// impostor's that slipped through the off-colour gate, for weighing the chosen blob
 /// against the look-alikes beside it. The laser's colour falls off as a normal; an
-/// impostor's is flat over the gate: on the target-less sets 1000098-153 (every blob on the
-/// line with a learned colour, calibrations fitted by this code), the true unclipped dots
-/// outnumbered the other blobs 54 to 6 within 0.5 sigmas and 6 to 22 between 2.5 and 3, a
-/// ratio falling as `exp(-z^2 / 2)` does. Weighing the look-alikes by the chosen blob's
+/// impostor's is flat over the gate: on the target-less sets 1000098-129 and 1000138-153
+/// (every unclipped blob on the line, against the colour each unit's calibration, fitted by
+/// this code, learned), the true dots outnumbered the other blobs 54 to 6 within 0.5 sigmas
+/// and 6 to 22 between 2.5 and 3, a ratio falling as `exp(-z^2 / 2)` does. Weighing the look-alikes by the chosen blob's
 /// own colour likelihood, as before, took its colour for no evidence against them: a dot
 /// 0.2 sigmas off its unit's colour was withheld beside algae 25 degrees short in white
 /// (1000143/03). On those six sets (960 photos, 661 visible dots), from the chosen blob's
@@ -257,7 +257,7 @@ impl LineCandidate {
     /// colour, on the scale of [`Self::colour_likelihood`]: flat
     /// ([`LOOKALIKE_COLOUR_SIGMAS`]); 1 under the prior, which weighs no colour.
     fn impostor_colour_likelihood(&self) -> f64 {
-        self.colour_sigmas.map_or(1.0, |_| (-0.5 * LOOKALIKE_COLOUR_SIGMAS * LOOKALIKE_COLOUR_SIGMAS).exp())
+        normal_likelihood(self.colour_sigmas.map(|_| LOOKALIKE_COLOUR_SIGMAS))
     }
 
     /// How likely the laser's light is to have its chroma (a normal in the angle's
@@ -266,7 +266,7 @@ impl LineCandidate {
     /// likelier the dot: a dot clipped white (its chroma barely measured) lost to an
     /// unclipped tuft 2.8 sigmas off only for the tuft's signal (tuning target-less 6/07).
     fn colour_likelihood(&self) -> f64 {
-        self.colour_sigmas.map_or(1.0, |z| (-0.5 * z * z).exp())
+        normal_likelihood(self.colour_sigmas)
     }
 
     /// Its place, signal and clipping alone: what a look-alike refused for its colour or
@@ -301,6 +301,11 @@ impl LineCandidate {
             self.misfit
         }
     }
+}
+
+/// A normal's likelihood at `z` sigmas, relative to its peak; 1 without a measure.
+fn normal_likelihood(z: Option<f64>) -> f64 {
+    z.map_or(1.0, |z| (-0.5 * z * z).exp())
 }
 
 /// Why a blob in the band cannot be the laser's dot.
