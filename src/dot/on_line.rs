@@ -101,13 +101,13 @@ const LOOKALIKE_SHARE: f64 = 0.12;
 /// impostor's is flat over the gate: on the target-less sets 1000098-129 and 1000138-153
 /// (every unclipped blob on the line, against the colour each unit's calibration, fitted by
 /// this code, learned), the true dots outnumbered the other blobs 54 to 6 within 0.5 sigmas
-/// and 6 to 22 between 2.5 and 3, a ratio falling as `exp(-z^2 / 2)` does. Weighing the look-alikes by the chosen blob's
-/// own colour likelihood, as before, took its colour for no evidence against them: a dot
-/// 0.2 sigmas off its unit's colour was withheld beside algae 25 degrees short in white
-/// (1000143/03). On those six sets (960 photos, 661 visible dots), from the chosen blob's
-/// likelihood to a flat one at 2 sigmas: right 473 -> 481, wrong 20 -> 19 (a laser-off
-/// photo's phantom withheld); at 1 and 1.5 sigmas, 475 and 477 right; at 2.5 and 3, 485
-/// with the phantom back (20 wrong).
+/// and 6 to 22 between 2.5 and 3, a ratio falling as `exp(-z^2 / 2)` does. Weighing the
+/// look-alikes by the chosen blob's own colour likelihood, as before, took its colour for
+/// no evidence against them: a dot 0.2 sigmas off its unit's colour was withheld beside
+/// algae 25 degrees short in white (1000143/03). On the six sets 1000098-153 (960 photos,
+/// 661 visible dots), from the chosen blob's likelihood to a flat one at 2 sigmas: right
+/// 473 -> 481, wrong 20 -> 19 (a laser-off photo's phantom withheld); at 1 and 1.5 sigmas,
+/// 475 and 477 right; at 2.5 and 3, 485 with the phantom back (20 wrong).
 const LOOKALIKE_COLOUR_SIGMAS: f64 = 2.0;
 
 /// Times the off-colour limit ([`OFF_COLOUR_SIGMAS`] sigmas of the
@@ -248,9 +248,9 @@ impl LineCandidate {
     /// How likely a beam's footprint is to have its outline's roughness (a normal of
     /// [`OUTLINE_ROUGHNESS_SIGMA`]); 1 where the outline was not measured.
     fn outline_likelihood(&self) -> f64 {
-        self.candidate
-            .outline_roughness
-            .map_or(1.0, |r| (-0.5 * (r.min(MAX_OUTLINE_ROUGHNESS) / OUTLINE_ROUGHNESS_SIGMA).powi(2)).exp())
+        normal_likelihood(
+            self.candidate.outline_roughness.map(|r| r.min(MAX_OUTLINE_ROUGHNESS) / OUTLINE_ROUGHNESS_SIGMA),
+        )
     }
 
     /// How likely an impostor that slipped through the colour gate is to have this blob's
