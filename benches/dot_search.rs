@@ -191,13 +191,13 @@ fn main() {
         &ANGLE_HEADS,
         &white_deficits,
     );
-    if let Some(worst) = line_ms.iter().max_by(|a, b| a.0.total_cmp(&b.0)).map(|w| w.1.display().to_string()) {
-        line_ms.sort_by(|a, b| a.0.total_cmp(&b.0));
+    line_ms.sort_by(|a, b| a.0.total_cmp(&b.0));
+    if let Some((worst_ms, worst)) = line_ms.last() {
         println!(
-            "\ndot search along the calibrated line (as check and measure run it), one thread, {} photos: median {:.1} ms, worst {:.1} ms ({worst}) (target < 40 ms)",
+            "\ndot search along the calibrated line (as check and measure run it), one thread, {} photos: median {:.1} ms, worst {worst_ms:.1} ms ({}) (target < 40 ms)",
             line_ms.len(),
             line_ms[line_ms.len() / 2].0,
-            line_ms[line_ms.len() - 1].0
+            worst.display()
         );
     }
 }
