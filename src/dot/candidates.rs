@@ -11,7 +11,7 @@
 //! Pure Rust on an image view: the vision module hands in the pixels.
 
 use super::centre::{refine_centre, weighted_centre, Glint};
-use super::colour::LaserColourModel;
+use super::colour::{with_chroma_of, LaserColourModel};
 use super::outline::{clipped_at_centre, hollow, outline_roughness, ContrastMap};
 use fslcal_core::Vec2;
 
@@ -136,9 +136,17 @@ pub struct DotCandidate {
     /// large for a dot at its distance makes its middle no dot either (an algae tuft's
     /// brightest 4 px in its 15 px core).
     pub enclosed_by: Option<Box<DotCandidate>>,
-    /// Mean excess (R, G, B) of the scored pixels over the local background, 8-bit levels:
-    /// what a calibration learns the laser's colour from.
+    /// Mean excess (R, G, B) of the scored pixels over the local background, 8-bit levels.
     pub excess_rgb: [f64; 3],
+    /// The excess whose chroma `colour_angle_rad` judged: `excess_rgb`'s white part and
+    /// length, and for a blob whose colour was read against the surface just around its core,
+    /// that reading's chroma ([`with_chroma_of`]). What a calibration learns the laser's
+    /// colour from, so that the colour it learns is read as its dots are judged: learned
+    /// against the ring, five tuning units' colours lay 8-12 degrees off their lasers' (a
+    /// level's error in a ring across a board's other squares turns a faint dot's chroma),
+    /// and their dots on fish, read against the band around them, were refused as
+    /// off-colour; learned as judged, 0.6-4.6 degrees.
+    pub judged_excess_rgb: [f64; 3],
     /// `excess_rgb` has a channel filled in from the laser's colour because that channel
     /// clips on the blob's surface ([`seen_through_clipping`]): its chroma repeats the model
     /// it was filled from, so it is no evidence of the laser's colour.
@@ -1173,10 +1181,12 @@ fn blob_candidate(
         return None;
     }
     // The hue only for the blobs that pass: its medians are wasted on the rest.
+    let mut judged_excess_rgb = colour.excess_rgb;
     if !colour.band.is_empty() {
         let hue = local_hue(colour.core_mean_rgb, colour.pixels, &mut colour.band);
         let local = params.colour.score_with(maps.weights, hue.excess_rgb, hue.equivalent_pixels, maps.sigma);
         (score.angle_rad, score.angle_sigma_rad) = (local.angle_rad, local.angle_sigma_rad);
+        judged_excess_rgb = with_chroma_of(colour.excess_rgb, hue.excess_rgb);
     }
     let snr = m.snr_with_core_at(
         fringe_contrast(maps.weights, colour.excess_rgb, m.saturated_pixels),
@@ -1270,6 +1280,7 @@ fn blob_candidate(
         split_from_blob: false,
         enclosed_by: None,
         excess_rgb: colour.excess_rgb,
+        judged_excess_rgb,
         colour_filled_in: colour.filled_in,
     })
 }
@@ -1988,13 +1999,15 @@ mod tests {
     /// in green and blue (the water's cast), by 25 levels under it, half that at 12 px. The
     /// ring beyond its halo is a dozen levels brighter than the surface under the dot, and
     /// the hue read against it is 0.20 rad off the laser's; against the band just outside
-    /// the core, on the hollow's floor, 0.02.
+    /// the core, on the hollow's floor, 0.02. A calibration learns from the hue judged.
     #[test]
     fn a_dot_in_a_shaded_hollow_is_read_against_the_surface_right_around_it() {
         let (dot, true_angle, p) = dot_in_a_hollow((35.0, 2.0), (25.0, 12.0));
         let ring_angle = p.colour.angle_rad(dot.excess_rgb);
         assert!(ring_angle - true_angle > 0.15, "the ring's hue: {ring_angle} against {true_angle}");
         assert!((dot.colour_angle_rad - true_angle).abs() < 0.04, "{} against {true_angle}", dot.colour_angle_rad);
+        let learned_angle = p.colour.angle_rad(dot.judged_excess_rgb);
+        assert!((learned_angle - dot.colour_angle_rad).abs() < 1e-9, "learned from {learned_angle}");
     }
 
     /// The candidate the default detector finds for a dot of a laser (0.2, 1.0, 0.3) of

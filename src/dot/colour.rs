@@ -349,7 +349,8 @@ pub const WHITE_PART_SPREAD_RATIO: f64 = 1.67;
 /// One accepted dot's colour as a calibration learns from it.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct MeasuredColour {
-    /// Mean excess (R, G, B) of the dot's scored pixels over its background, 8-bit levels.
+    /// The dot's excess (R, G, B) over its background, 8-bit levels, as its colour was judged
+    /// (`DotCandidate::judged_excess_rgb`).
     pub excess_rgb: [f64; 3],
     /// 1-sigma noise of its chroma angle, radians ([`ColourScore::angle_sigma_rad`]).
     pub angle_sigma_rad: f64,
@@ -415,6 +416,21 @@ fn weighted_median(values: &[f64], weights: &[f64]) -> f64 {
         }
     }
     v.last().map_or(0.0, |p| p.0)
+}
+
+/// An excess (R, G, B levels) with `white_from`'s white part and chroma length and
+/// `chroma_from`'s chroma direction; `white_from` itself when `chroma_from` has no chroma. A
+/// blob's chroma is best read against the surface right around it, its white part against
+/// the ring its contrast is read against ([`LaserColourModel::white_deficit_rad`] judges it
+/// there).
+pub fn with_chroma_of(white_from: [f64; 3], chroma_from: [f64; 3]) -> [f64; 3] {
+    let chroma = |v: [f64; 3]| sub(v, scale(WHITE, dot(v, WHITE)));
+    let (keep, turn) = (chroma(white_from), chroma(chroma_from));
+    let length = dot(turn, turn).sqrt();
+    if length < 1e-9 {
+        return white_from;
+    }
+    add(scale(WHITE, dot(white_from, WHITE)), scale(turn, dot(keep, keep).sqrt() / length))
 }
 
 fn dot(a: [f64; 3], b: [f64; 3]) -> f64 {
@@ -579,6 +595,26 @@ mod tests {
         // With fewer than three clean dots every dot counts.
         let all = LaserColourModel::learn(&dots[1..]).expect("five dots");
         assert_eq!(all.source, ColourSource::Learned { dots: 5 });
+    }
+
+    /// A dot of (20, 40, 10) levels read against its ring, whose chroma a level's error
+    /// turned, and against the band around its core: the excess learned from keeps the
+    /// ring's white part and chroma length, and takes the band's chroma direction.
+    #[test]
+    fn the_learned_excess_keeps_the_rings_white_part_and_the_bands_chroma() {
+        let chroma = |v: [f64; 3]| sub(v, scale(WHITE, dot(v, WHITE)));
+        let ring = [20.0, 40.0, 10.0];
+        let band = [13.0, 31.0, 7.5];
+        let judged = with_chroma_of(ring, band);
+        assert!((dot(judged, WHITE) - dot(ring, WHITE)).abs() < 1e-9, "white part {judged:?}");
+        let (c, r, b) = (chroma(judged), chroma(ring), chroma(band));
+        assert!((dot(c, c) - dot(r, r)).abs() < 1e-9, "chroma length {judged:?}");
+        assert!(dot(unit(c), unit(b)) > 1.0 - 1e-12, "chroma direction {judged:?}");
+        let m = LaserColourModel::green_prior();
+        assert!((m.angle_rad(judged) - m.angle_rad(band)).abs() < 1e-9);
+        assert!((m.angle_rad(ring) - m.angle_rad(band)).abs() > 0.01, "the case turns the chroma");
+        // A band with no chroma says nothing of the hue: the ring's stands.
+        assert_eq!(with_chroma_of(ring, [5.0, 5.0, 5.0]), ring);
     }
 
     /// Held-out unit 1000067's board dots as its calibration measured them: four clipped at

@@ -108,6 +108,7 @@ pub fn hand_candidate(px: Vec2) -> DotCandidate {
         split_from_blob: false,
         enclosed_by: None,
         excess_rgb: [0.0; 3],
+        judged_excess_rgb: [0.0; 3],
         colour_filled_in: false,
     }
 }

@@ -285,6 +285,7 @@ mod tests {
             split_from_blob: false,
             enclosed_by: None,
             excess_rgb: [10.0, 30.0, 10.0],
+            judged_excess_rgb: [10.0, 30.0, 10.0],
             colour_filled_in: false,
         }
     }

@@ -457,7 +457,7 @@ fn learn_colour(results: &[PhotoResult], fit: &LaserFit) -> Option<LaserColourMo
             let used = pf.as_ref().is_some_and(|p| p.outlier.is_none());
             let c = e.candidates.first().filter(|_| used && e.dot_source != DotSource::Hand)?;
             Some(MeasuredColour {
-                excess_rgb: c.excess_rgb,
+                excess_rgb: c.judged_excess_rgb,
                 angle_sigma_rad: c.colour_angle_sigma_rad,
                 filled_in: c.colour_filled_in,
             })
