@@ -142,10 +142,10 @@ pub struct DotCandidate {
     /// length, and for a blob whose colour was read against the surface just around its core,
     /// that reading's chroma ([`with_chroma_of`]). What a calibration learns the laser's
     /// colour from, so that the colour it learns is read as its dots are judged: learned
-    /// against the ring, five tuning units' colours lay 8-12 degrees off their lasers' (a
-    /// level's error in a ring across a board's other squares turns a faint dot's chroma),
-    /// and their dots on fish, read against the band around them, were refused as
-    /// off-colour; learned as judged, 0.6-4.6 degrees.
+    /// against the ring (which may lie on another surface, [`LOCAL_BACKGROUND_GAP_PX`]),
+    /// five tuning units' colours lay 8-12 degrees off their lasers', and their dots on
+    /// fish, read against the band around them, were refused as off-colour; learned as
+    /// judged, 0.6-4.6 degrees.
     pub judged_excess_rgb: [f64; 3],
     /// `excess_rgb` has a channel filled in from the laser's colour because that channel
     /// clips on the blob's surface ([`seen_through_clipping`]): its chroma repeats the model
