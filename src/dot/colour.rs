@@ -115,9 +115,9 @@ impl LaserColourModel {
         let rgb = unit(rgb);
         // A direction this close to white has no chroma to score along: NaN, refused by
         // the callers that take outside input.
-        let chroma = sub(rgb, scale(WHITE, dot(rgb, WHITE)));
+        let chroma = chroma_of(rgb);
         let rgb = if dot(chroma, chroma) < 1e-4 { [f64::NAN; 3] } else { rgb };
-        let along = unit(sub(rgb, scale(WHITE, dot(rgb, WHITE))));
+        let along = unit(chroma_of(rgb));
         let across = unit(cross(WHITE, along));
         LaserColourModel { rgb, spread_rad, source, along, across }
     }
@@ -241,7 +241,7 @@ impl LaserColourModel {
             .filter(|d| dot(d.excess_rgb, d.excess_rgb) > 1e-9)
             .map(|d| {
                 let e = d.excess_rgb;
-                (unit(sub(e, scale(WHITE, dot(e, WHITE)))), d.angle_sigma_rad.max(0.0))
+                (unit(chroma_of(e)), d.angle_sigma_rad.max(0.0))
             })
             .filter(|(d, s)| d.iter().all(|v| v.is_finite()) && s.is_finite())
             .collect();
@@ -438,13 +438,17 @@ fn weighted_median(values: &[f64], weights: &[f64]) -> f64 {
 /// the ring its contrast is read against ([`LaserColourModel::white_deficit_rad`] judges it
 /// there).
 pub fn with_chroma_of(white_from: [f64; 3], chroma_from: [f64; 3]) -> [f64; 3] {
-    let chroma = |v: [f64; 3]| sub(v, scale(WHITE, dot(v, WHITE)));
-    let (keep, turn) = (chroma(white_from), chroma(chroma_from));
+    let (keep, turn) = (chroma_of(white_from), chroma_of(chroma_from));
     let length = dot(turn, turn).sqrt();
     if length < 1e-9 {
         return white_from;
     }
     add(scale(WHITE, dot(white_from, WHITE)), scale(turn, dot(keep, keep).sqrt() / length))
+}
+
+/// `v` less its white part: its chroma.
+fn chroma_of(v: [f64; 3]) -> [f64; 3] {
+    sub(v, scale(WHITE, dot(v, WHITE)))
 }
 
 fn dot(a: [f64; 3], b: [f64; 3]) -> f64 {
@@ -616,12 +620,11 @@ mod tests {
     /// ring's white part and chroma length, and takes the band's chroma direction.
     #[test]
     fn the_learned_excess_keeps_the_rings_white_part_and_the_bands_chroma() {
-        let chroma = |v: [f64; 3]| sub(v, scale(WHITE, dot(v, WHITE)));
         let ring = [20.0, 40.0, 10.0];
         let band = [13.0, 31.0, 7.5];
         let judged = with_chroma_of(ring, band);
         assert!((dot(judged, WHITE) - dot(ring, WHITE)).abs() < 1e-9, "white part {judged:?}");
-        let (c, r, b) = (chroma(judged), chroma(ring), chroma(band));
+        let (c, r, b) = (chroma_of(judged), chroma_of(ring), chroma_of(band));
         assert!((dot(c, c) - dot(r, r)).abs() < 1e-9, "chroma length {judged:?}");
         assert!(dot(unit(c), unit(b)) > 1.0 - 1e-12, "chroma direction {judged:?}");
         let m = LaserColourModel::green_prior();
@@ -713,7 +716,7 @@ mod tests {
         let faint = scale(tilt(m.rgb, 0.13), 19.0 / m.rgb[1]);
         let score = m.score(faint, 100, 1.0);
         assert!((score.angle_rad.to_degrees() - 14.0).abs() < 1.5, "{}", score.angle_rad.to_degrees());
-        let pixels_alone = 1.0 / (10.0 * m.along.iter().zip(faint).map(|(a, e)| a * e).sum::<f64>());
+        let pixels_alone = 1.0 / (10.0 * m.contrast(faint));
         assert!(pixels_alone < 1f64.to_radians(), "{pixels_alone}");
         assert!(score.angle_sigma_rad > 5f64.to_radians(), "{}", score.angle_sigma_rad.to_degrees());
         assert!(!m.off_colour(score.angle_rad, score.angle_sigma_rad), "{score:?}");
