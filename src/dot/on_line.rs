@@ -430,7 +430,8 @@ pub fn find_dot_on_laser_line(
 
 /// Every dot-like blob in the band around the laser's image, each with its gate, strongest
 /// first. A second, more sensitive look close to the line runs when the first finds nothing
-/// plausible: far dots in murky water are faint.
+/// plausible: far dots in murky water are faint, and a blob the first look refused may be
+/// a dot measured against too wide a background ([`take_second_measure`]).
 pub fn line_candidates(
     img: &ColourView,
     camera: &CameraModel,
@@ -467,13 +468,41 @@ pub fn line_candidates(
             // A spot split from a larger blob is that blob's part: the whole one found in
             // the second look is the better measure of it.
             found.retain(|f| !(f.candidate.split_from_blob && !f.plausible() && same(f)));
-            if !found.iter().any(same) {
-                found.extend(judge(c, true));
+            match found.iter().position(same) {
+                None => found.extend(judge(c, true)),
+                Some(k) => {
+                    if let Some(again) = judge(c, true) {
+                        take_second_measure(&mut found[k], again);
+                    }
+                }
             }
         }
     }
     found.sort_by(|a, b| b.candidate.snr.total_cmp(&a.candidate.snr));
     Ok(found)
+}
+
+/// Largest share of the first look's radius at which the second look's measure of a blob
+/// the first refused as too large replaces it. A dot in its own glow on a bright fish
+/// (target-less 1000164/15: 34 px against the first look's 40 px background, 7 px
+/// against the second's 12 px) or its halo over dark water (1000181/14: 12 -> 7.6 px) shrinks
+/// to its core; a lit surface stays nearly as large (a laser-off photo's 21 px blob read
+/// 17.5 px, tuning 1000157/05; an occluded dot's 13 px blob 10 px, 1000104/13), and was
+/// taken for the dot when any plausible second measure replaced the first.
+const REMEASURED_TOO_LARGE_SHARE: f64 = 2.0 / 3.0;
+
+/// Keeps the second look's measure of a blob the first look measured as `first`, when the
+/// first was refused and the second is plausible. The second look's 12 px background is the
+/// dot's own surroundings, where the first's 40 px took in a fish's sheen or the water beside
+/// it: on 38 tuning target-less sets, 9 dots first refused as too large (3), ragged (3),
+/// off-colour (2) or off the line (1) were found, and no other answer changed. A blob
+/// refused as too large is a surface unless the second look sees it much smaller
+/// ([`REMEASURED_TOO_LARGE_SHARE`]).
+fn take_second_measure(first: &mut LineCandidate, again: LineCandidate) {
+    let shrunk = again.candidate.radius_px < REMEASURED_TOO_LARGE_SHARE * first.candidate.radius_px;
+    if !first.plausible() && again.plausible() && (first.refusal() != Some(Refusal::TooLarge) || shrunk) {
+        *first = again;
+    }
 }
 
 /// The line split into pieces about `piece_px` long, each running near to far, nearest
@@ -909,6 +938,39 @@ mod tests {
     /// `c` clipped at its centre.
     fn clipped(c: LineCandidate) -> LineCandidate {
         LineCandidate { candidate: DotCandidate { saturated_core: true, ..c.candidate }, ..c }
+    }
+
+    /// The second look's measure replaces a refused first one when it is plausible; a blob
+    /// first refused as too large only when the second look sees it under two-thirds its
+    /// size. A plausible first measure, or a second one refused, changes nothing.
+    #[test]
+    fn the_second_look_measures_again_a_blob_the_first_refused() {
+        let sized = |c: LineCandidate, radius_px: f64| LineCandidate {
+            candidate: DotCandidate { radius_px, ..c.candidate },
+            ..c
+        };
+        let again = |radius_px: f64| sized(with_snr(blob(100.0, None, 0.3), 40.0), radius_px);
+        let second = |first: &LineCandidate, again: LineCandidate| {
+            let mut kept = first.clone();
+            take_second_measure(&mut kept, again);
+            kept
+        };
+        for refusal in [Refusal::Ragged, Refusal::OffColour, Refusal::TooFaint] {
+            let first = sized(blob(100.0, Some(refusal), 0.3), 5.0);
+            assert_eq!(second(&first, again(5.0)), again(5.0), "{refusal:?}");
+        }
+        let off_line = sized(blob(100.0, None, 8.0), 5.0);
+        assert_eq!(off_line.refusal(), Some(Refusal::OffLine));
+        assert_eq!(second(&off_line, again(4.0)), again(4.0));
+        // Too large at 21 px: 13.9 px is a dot in its glow, 14.1 px the same surface.
+        let large = sized(blob(100.0, Some(Refusal::TooLarge), 0.3), 21.0);
+        assert_eq!(second(&large, again(13.9)), again(13.9));
+        assert_eq!(second(&large, again(14.1)), large);
+        let plausible = sized(blob(100.0, None, 0.3), 5.0);
+        assert_eq!(second(&plausible, again(3.0)), plausible);
+        let refused_again = sized(blob(100.0, Some(Refusal::Ragged), 0.3), 3.0);
+        let ragged = sized(blob(100.0, Some(Refusal::Ragged), 0.3), 5.0);
+        assert_eq!(second(&ragged, refused_again), ragged);
     }
 
     /// One plausible blob alone is the dot; beside a look-alike refused for its outline that
