@@ -1457,7 +1457,11 @@ fn blob_colour(
     }
     let core_mean_rgb = sig.map(|v| v / n_sig as f64);
     let excess_rgb = [0, 1, 2].map(|c| core_mean_rgb[c] - bg.mean_rgb[c]);
-    let blind = bg.clipped_share.map(|share| share > 0.5);
+    // A near dot's glow clips a bright surface's channels over its whole fringe where the
+    // surface itself does not clip: those channels' excess is cut at the clip as surely.
+    let fringe_clipped = |c: usize| scored_px.iter().filter(|p| p[c] >= CLIPPED as f64).count() as f64;
+    let blind = [0, 1, 2]
+        .map(|c| bg.clipped_share[c] > BLIND_SHARE || (clipped_core && fringe_clipped(c) > BLIND_SHARE * n_sig as f64));
     let seen = seen_through_clipping(excess_rgb, blind, laser_rgb);
     let filled_in = seen != excess_rgb;
     // A channel clipped on the surface has no local contrast either: its fill stands.
@@ -1466,6 +1470,15 @@ fn blob_colour(
     }
     Some(BlobColour { excess_rgb: seen, pixels: n_sig, filled_in, core_mean_rgb, band: local })
 }
+
+/// Share of pixels clipped in a channel beyond which that channel is blind to a blob's
+/// contrast ([`seen_through_clipping`]): of the ring's (the surface clips), or of a clipped
+/// core's fringe (its glow clips the surface). A dot of 3 671 levels at 1.5 m on a cyan
+/// square (green 215, blue 225) clipped green and blue over its 361 fringe pixels, read
+/// (144, 20, 42) levels of excess, far off the laser's colour, and was no candidate: that
+/// companion calibration (target-less 1000178) was refused, and calibration 1000173/00 (7 271
+/// levels) lost its dot.
+const BLIND_SHARE: f64 = 0.5;
 
 /// Least share of a blob's core (its pixels at half its peak or more) that must clip for
 /// its colour to be read as a clipped core's (from the blob and its fringe, against the
@@ -1948,6 +1961,31 @@ mod tests {
         assert!(dot.saturated_core, "{dot:?}");
         let true_angle = p.colour.angle_rad(laser);
         assert!((dot.colour_angle_rad - true_angle).abs() < 0.15, "{} against {true_angle}", dot.colour_angle_rad);
+    }
+
+    /// A near dot of 3 000 levels on a bright cyan square of a board (green 215, blue 225,
+    /// never clipped itself): its white core is 9 px across, its glow clips green and blue
+    /// over the fringe its colour is read on but not over the ring beyond, and the clipped
+    /// green, wider than a quarter square, is the surface's to the core test. Its contrast
+    /// shows only in red: read as measured it scored far off the laser's colour and was no
+    /// candidate. With those channels blind it is found, its colour filled in from the
+    /// laser's (no evidence of it).
+    #[test]
+    fn a_near_dots_glow_clipping_a_bright_square_is_seen_in_its_other_channel() {
+        let side = 56usize;
+        let (w, h) = (10 * side, 7 * side);
+        let truth = Vec2::new(252.3, 140.6);
+        let laser = [0.29, 1.0, 0.31];
+        let data = paint(w, h, |x, y| {
+            let dot = spot(x, y, truth, 3000.0, 5.0) + spot(x, y, truth, 400.0, 8.0);
+            let surface = if on_white(x, y, side) { [40.0, 215.0, 225.0] } else { [20.0, 40.0, 45.0] };
+            lit(surface, laser, dot, grain(x, y))
+        });
+        let region = over_board_9x6(side, board_9x6(side));
+        let c = find_dot_candidates(&view(&data, w, h), &region, &DotDetectorParams::default(), 8);
+        let dot = c.iter().find(|c| (c.pixel - truth).norm() < 1.0);
+        let dot = dot.unwrap_or_else(|| panic!("no candidate at the dot: {c:?}"));
+        assert!(dot.saturated_core && dot.colour_filled_in, "{dot:?}");
     }
 
     /// A near dot dim enough not to clip is a flat disc 15 px in radius, 50 levels over a
