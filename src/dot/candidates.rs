@@ -1459,9 +1459,8 @@ fn blob_colour(
     let excess_rgb = [0, 1, 2].map(|c| core_mean_rgb[c] - bg.mean_rgb[c]);
     // A near dot's glow clips a bright surface's channels over its whole fringe where the
     // surface itself does not clip: those channels' excess is cut at the clip as surely.
-    let fringe_clipped = |c: usize| scored_px.iter().filter(|p| p[c] >= CLIPPED as f64).count() as f64;
-    let blind = [0, 1, 2]
-        .map(|c| bg.clipped_share[c] > BLIND_SHARE || (clipped_core && fringe_clipped(c) > BLIND_SHARE * n_sig as f64));
+    let fringe = if clipped_core { clipped_share(&scored_px) } else { [0.0; 3] };
+    let blind = [0, 1, 2].map(|c| bg.clipped_share[c] > BLIND_SHARE || fringe[c] > BLIND_SHARE);
     let seen = seen_through_clipping(excess_rgb, blind, laser_rgb);
     let filled_in = seen != excess_rgb;
     // A channel clipped on the surface has no local contrast either: its fill stands.
@@ -1469,6 +1468,12 @@ fn blob_colour(
         local.clear();
     }
     Some(BlobColour { excess_rgb: seen, pixels: n_sig, filled_in, core_mean_rgb, band: local })
+}
+
+/// The share of `pixels` (R, G, B levels) clipped in each channel; NaN for none.
+fn clipped_share(pixels: &[[f64; 3]]) -> [f64; 3] {
+    let n = pixels.len() as f64;
+    [0, 1, 2].map(|c| pixels.iter().filter(|p| p[c] >= CLIPPED as f64).count() as f64 / n)
 }
 
 /// Share of pixels clipped in a channel beyond which that channel is blind to a blob's
@@ -1595,7 +1600,7 @@ fn surface_background(
         let n = pixels.len() as f64;
         SurfaceBackground {
             mean_rgb: [0, 1, 2].map(|c| pixels.iter().map(|p| p[c]).sum::<f64>() / n),
-            clipped_share: [0, 1, 2].map(|c| pixels.iter().filter(|p| p[c] >= CLIPPED as f64).count() as f64 / n),
+            clipped_share: clipped_share(pixels),
         }
     };
     let (dark, bright, split) = match ring_surfaces(ring, near) {
