@@ -1927,6 +1927,30 @@ mod tests {
         assert!((prior - truth).norm() < 0.5, "the prior: {prior:?}");
     }
 
+    /// A bright dot on a bright green fish (green 236, blue shaded by 0.5 levels per pixel
+    /// across it), its core clipped white in one pixel: the dot's glow lifts the fish's green
+    /// to the clip 6 px around the core, where the laser adds about 19 levels of green and 8
+    /// of blue, less than the fish's shading varies over the ring. Judged by their blue, the
+    /// glow's pixels on the fish's bluer side weighed as the laser's light and those on the
+    /// other as a pigment's, and the centre went 2.2 px up the shading (target-less
+    /// 1000200/08: a 490-level dot centred 3.6 px off, a wrong dot); where the laser's blue
+    /// would be lost in the ring's scatter a pixel is not judged (0.1 px off).
+    #[test]
+    fn a_dot_whose_glow_clips_a_bright_fish_is_centred_on_the_glow_not_up_its_shading() {
+        let (w, h) = (200usize, 150usize);
+        let truth = Vec2::new(100.3, 75.6);
+        let laser = [0.26, 1.0, 0.34];
+        let data = paint(w, h, |x, y| {
+            let dot = spot(x, y, truth, 650.0, 1.5) + spot(x, y, truth, 30.0, 7.0);
+            let shade = 0.5 * (x as f64 - truth.x) + 0.3 * (y as f64 - truth.y);
+            lit([88.0, 236.0, 78.0 + shade], laser, dot, grain(x, y))
+        });
+        let unit = fslcal_core::unit_file::LaserColour { rgb: [0.31, 0.88, 0.36], spread_rad: 0.08, dots: 7 };
+        let colour = LaserColourModel::from_unit(&unit).expect("a green laser with blue");
+        let dot = candidate_at(&data, (w, h), truth, &DotDetectorParams { colour, ..DotDetectorParams::default() });
+        assert!((dot.pixel - truth).norm() < 0.5, "{:?} against {truth:?}", dot.pixel);
+    }
+
     /// A green dot on a white square 12 px from a black one, in clear blue water: its colour
     /// is measured against the white square, not against a ring half on the black one
     /// (measured so, the chroma angle was 0.85 rad; against the white square, 0.11).

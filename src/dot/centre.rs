@@ -223,6 +223,9 @@ struct Background {
     floor: f64,
     /// The ring's mean (R, G, B), levels.
     mean_rgb: [f64; 3],
+    /// Twice the ring's RMS scatter about `mean_rgb` in the laser's second channel, levels
+    /// (0 without a second channel) ([`Background::agreement`]).
+    second_floor: f64,
     /// The laser's second channel ([`second_channel`]), when its colour is learned.
     second: Option<SecondChannel>,
 }
@@ -301,7 +304,8 @@ impl Background {
             // A uniform ring gives no slope: fall back to a constant background.
             let slope = if var_x > 4.0 { ((sxg / n - sx / n * sg / n) / var_x).clamp(0.0, 3.0) } else { 0.0 };
             let offset = sg / n - slope * sx / n;
-            let mut model = Background { offset, slope, on_red, floor: 0.0, mean_rgb: [0.0; 3], second };
+            let mut model =
+                Background { offset, slope, on_red, floor: 0.0, mean_rgb: [0.0; 3], second_floor: 0.0, second };
             let ss: f64 = ring.iter().map(|p| model.residual(p[0], p[1], p[2]).powi(2)).sum();
             model.floor = 2.0 * (ss / n).sqrt();
             let kept = 1.0 - slope * laser_rgb[k] / laser_rgb[1].max(1e-6);
@@ -329,6 +333,10 @@ impl Background {
         let mut model = choice.0;
         let n = ring.len() as f64;
         model.mean_rgb = [0, 1, 2].map(|k| ring.iter().map(|p| p[k]).sum::<f64>() / n);
+        if let Some(s) = second {
+            let mean = model.mean_rgb[s.channel];
+            model.second_floor = 2.0 * (ring.iter().map(|p| (p[s.channel] - mean).powi(2)).sum::<f64>() / n).sqrt();
+        }
         Some(model)
     }
 
@@ -339,14 +347,22 @@ impl Background {
     /// a bluish dot, and 1000101/11, a yellow-green one); the laser's own pixels carry its red
     /// or blue as well, a green pigment's do not. A pixel whose green is clipped reads too
     /// little green, so the dot's own clipped pixels stay at 1. Pixels less than
-    /// [`BRIGHT_SHARE`] of the way from the ring's green to the clip keep their weight.
+    /// [`BRIGHT_SHARE`] of the way from the ring's green to the clip keep their weight, and so
+    /// do those where the laser's share of the second channel would be lost in the ring's
+    /// scatter there (`second_floor`). On a bright green fish a dot's glow clips green with a
+    /// few levels of its own, and across a fish's edge the ring's blue varies by tens of
+    /// levels: there the second channel's shading, not the laser, set the weights (a
+    /// 490-level dot centred 3.6 px up a bright fish's blue shading, target-less 1000200/08;
+    /// a 343-level one on a fish's edge refused as off the line, 1000202/07; a 788-level one
+    /// beside a clipped algae tuft, lost, 1000162/08).
     fn agreement(&self, r: f64, g: f64, b: f64) -> f64 {
         let Some(SecondChannel { channel, per_green }) = self.second else { return 1.0 };
         let green = g - self.mean_rgb[1];
-        if green < BRIGHT_SHARE * (CLIPPED as f64 - self.mean_rgb[1]) || green <= 1.0 {
+        let expected = per_green * green;
+        if green < BRIGHT_SHARE * (CLIPPED as f64 - self.mean_rgb[1]) || green <= 1.0 || expected < self.second_floor {
             return 1.0;
         }
-        (([r, g, b][channel] - self.mean_rgb[channel]) / (per_green * green)).clamp(0.0, 1.0)
+        (([r, g, b][channel] - self.mean_rgb[channel]) / expected).clamp(0.0, 1.0)
     }
 
     /// The dot's signal: green above what the background model predicts.
