@@ -11,7 +11,7 @@
 //! Pure Rust on an image view: the vision module hands in the pixels.
 
 use super::centre::{refine_centre, weighted_centre, Glint};
-use super::colour::{with_chroma_of, LaserColourModel};
+use super::colour::{beyond_colour_gate, with_chroma_of, LaserColourModel};
 use super::outline::{clipped_at_centre, hollow, outline_roughness, ContrastMap};
 use fslcal_core::Vec2;
 
@@ -305,8 +305,12 @@ pub fn find_dot_candidates(
                 // The blob centred on its own peak: the spot measures it, the blob's colour
                 // and size being its surface's (a dot on a green fin read 86 degrees off its
                 // unit's colour over the fin's 2 400 px, 20 against its own spot: fresh
-                // target-less 1000091/16).
-                Some(c) => whole = Some(DotCandidate { enclosed_by: whole.map(Box::new), ..c }),
+                // target-less 1000091/16). It is judged by that blob's size too, unless the
+                // two are of different lights ([`another_light`]).
+                Some(c) => {
+                    let enclosed_by = whole.filter(|w| !another_light(&params.colour, &c, w)).map(Box::new);
+                    whole = Some(DotCandidate { enclosed_by, ..c })
+                }
                 None => {}
             }
             next += 1;
@@ -316,6 +320,20 @@ pub fn find_dot_candidates(
     candidates.sort_by(|a, b| b.snr.total_cmp(&a.snr));
     candidates.truncate(max);
     candidates
+}
+
+/// Whether a spot found at a blob's middle is a light of its own rather than the blob's
+/// brightest part: its colour is the laser's (within the learned colour's gate) where the
+/// blob's is not. A tuft's middle has the tuft's colour, as the blob around it does; a dot
+/// on a tuft or a fin adds the laser's, and the blob's colour is the pigment's, read over
+/// its many pixels. Judged by the tuft's size, dots of 145 and 170 levels sitting on algae
+/// were refused as too large (target-less 1000208/08, 1000163/19: spots 0.02 and 0.17
+/// sigmas off their units' colours, the tufts 5.2 and 5.7). Under the prior, which judges
+/// no colour, a spot always stands for its blob.
+fn another_light(colour: &LaserColourModel, spot: &DotCandidate, blob: &DotCandidate) -> bool {
+    let sigmas =
+        |c: &DotCandidate| colour.colour_sigmas(c.colour_angle_rad, c.white_deficit_rad, c.colour_angle_sigma_rad);
+    !beyond_colour_gate(sigmas(spot)) && beyond_colour_gate(sigmas(blob))
 }
 
 /// The candidate of a spot split from a blob (labelled `id`), unless the blob's own
@@ -2384,6 +2402,42 @@ mod tests {
         assert!(!dot.split_from_blob && fin.radius_px > 15.0, "{dot:?}");
         assert!(dot.radius_px < 6.0, "the dot's own size, not the fin's: {dot:?}");
         assert!(dot.colour_angle_rad < 0.1, "the laser's colour: {dot:?}");
+    }
+
+    /// A dot of 90 levels in the middle of an algae tuft 20 px in radius, under a unit's
+    /// learned colour (green with blue): tuft and dot flood into one blob centred on the dot,
+    /// its colour the tuft's pigment (green up, red and blue down), and the dot's spot stands
+    /// in for it. Judged by the tuft's size as well, such dots were refused as too large
+    /// (target-less 1000208/08, 1000163/19); the spot, of the laser's colour where the tuft is
+    /// not, is a light of its own. A tuft whose middle is brighter pigment and no dot keeps
+    /// its size.
+    #[test]
+    fn a_dot_on_an_algae_tuft_is_not_judged_by_the_tufts_size() {
+        let (w, h) = (240usize, 200usize);
+        let truth = Vec2::new(120.4, 100.3);
+        let unit = fslcal_core::unit_file::LaserColour { rgb: [0.31, 0.88, 0.36], spread_rad: 0.08, dots: 7 };
+        let colour = LaserColourModel::from_unit(&unit).expect("a green laser with blue");
+        let params = DotDetectorParams { colour, ..DotDetectorParams::default() };
+        let tuft = |dot: f64, middle: f64| {
+            paint(w, h, |x, y| {
+                let r = (x as f64 - truth.x).hypot(y as f64 - truth.y);
+                let pigment = ((20.0 - r) / 2.0).clamp(0.0, 1.0) + spot(x, y, truth, middle, 2.5);
+                let (d, noise) = (spot(x, y, truth, dot, 2.5), grain(x, y));
+                [
+                    40.0 - 15.0 * pigment + 0.35 * d + noise,
+                    70.0 + 60.0 * pigment + d + noise,
+                    90.0 - 30.0 * pigment + 0.41 * d + noise,
+                ]
+            })
+        };
+        let c = along_vertical_line(&tuft(90.0, 0.0), (w, h), (120.4, 20.0), (80.0, 160.0), &params, 16);
+        let dot = c.iter().find(|c| (c.pixel - truth).norm() < 0.6);
+        let dot = dot.unwrap_or_else(|| panic!("no candidate within 0.6 px of the dot: {c:?}"));
+        assert!(dot.radius_px < 6.0 && dot.colour_angle_rad < 0.1, "the dot's own spot: {dot:?}");
+        assert!(dot.enclosed_by.is_none(), "not the tuft's middle: {dot:?}");
+        let c = along_vertical_line(&tuft(0.0, 1.5), (w, h), (120.4, 20.0), (80.0, 160.0), &params, 16);
+        let middle = c.iter().filter(|c| (c.pixel - truth).norm() < 3.0).collect::<Vec<_>>();
+        assert!(!middle.is_empty() && middle.iter().all(|c| c.radius_px > 15.0 || c.enclosed_by.is_some()), "{c:?}");
     }
 
     /// A board in green water, where the squares' contrast lies along a green laser's
