@@ -328,12 +328,16 @@ pub fn find_dot_candidates(
 /// on a tuft or a fin adds the laser's, and the blob's colour is the pigment's, read over
 /// its many pixels. Judged by the tuft's size, dots of 145 and 170 levels sitting on algae
 /// were refused as too large (target-less 1000208/08, 1000163/19: spots 0.02 and 0.17
-/// sigmas off their units' colours, the tufts 5.2 and 5.7). Under the prior, which judges
-/// no colour, a spot always stands for its blob.
+/// sigmas off their units' colours, the tufts 5.2 and 5.7). The spot's colour is judged
+/// against the laser's spread alone, as if read without error: a clipped spot's chroma is
+/// given a wide uncertainty (`CLIPPED_CHROMA_SIGMA_RAD`) that admitted a spot 39 degrees off
+/// (a dot's white core merged with a tuft 15 px away and centred 4.3 px toward it, fresh
+/// target-less 1000230/06, then taken as a wrong dot); that is no evidence against the
+/// blob's size. Under the prior, which judges no colour, a spot always stands for its blob.
 fn another_light(colour: &LaserColourModel, spot: &DotCandidate, blob: &DotCandidate) -> bool {
-    let sigmas =
-        |c: &DotCandidate| colour.colour_sigmas(c.colour_angle_rad, c.white_deficit_rad, c.colour_angle_sigma_rad);
-    !beyond_colour_gate(sigmas(spot)) && beyond_colour_gate(sigmas(blob))
+    let spot_sigmas = colour.colour_sigmas(spot.colour_angle_rad, spot.white_deficit_rad, 0.0);
+    let blob_sigmas = colour.colour_sigmas(blob.colour_angle_rad, blob.white_deficit_rad, blob.colour_angle_sigma_rad);
+    spot_sigmas.is_some() && !beyond_colour_gate(spot_sigmas) && beyond_colour_gate(blob_sigmas)
 }
 
 /// The candidate of a spot split from a blob (labelled `id`), unless the blob's own
