@@ -11,7 +11,7 @@
 //! Pure Rust on an image view: the vision module hands in the pixels.
 
 use super::centre::{refine_centre, weighted_centre, Glint};
-use super::colour::{beyond_colour_gate, with_chroma_of, ColourSource, LaserColourModel};
+use super::colour::{beyond_colour_gate, with_chroma_of, LaserColourModel};
 use super::outline::{clipped_at_centre, hollow, outline_roughness, ContrastMap};
 use fslcal_core::Vec2;
 
@@ -1197,7 +1197,7 @@ fn blob_candidate(
     // (three background fits and a matched filter) is the costly step.
     let core_radius_px = (m.core_pixels as f64 / core::f64::consts::PI).sqrt();
     let clipped_colour = m.saturated_pixels as f64 >= (CLIPPED_COLOUR_SHARE * m.core_pixels as f64).max(1.0);
-    let mut colour = blob_colour(img, maps, id, rough, (radius_px, core_radius_px), clipped_colour, &params.colour)?;
+    let mut colour = blob_colour(img, maps, id, rough, (radius_px, core_radius_px), clipped_colour, params.colour.rgb)?;
     let mut score = params.colour.score_with(maps.weights, colour.excess_rgb, colour.pixels, maps.sigma);
     if score.sigmas < params.min_colour_sigmas {
         return None;
@@ -1428,9 +1428,8 @@ fn blob_colour(
     centre: Vec2,
     radii: (f64, f64),
     clipped_core: bool,
-    laser: &LaserColourModel,
+    laser_rgb: [f64; 3],
 ) -> Option<BlobColour> {
-    let laser_rgb = laser.rgb;
     // A disc, not only the pixels the threshold picked: a speck of noise picked for being
     // bright along the laser's colour would otherwise score as that colour.
     let (radius_px, core_radius_px) = radii;
@@ -1484,11 +1483,7 @@ fn blob_colour(
     // surface itself does not clip: those channels' excess is cut at the clip as surely.
     let fringe = if clipped_core { clipped_share(&scored_px) } else { [0.0; 3] };
     let blind = [0, 1, 2].map(|c| bg.clipped_share[c] > BLIND_SHARE || fringe[c] > BLIND_SHARE);
-    let mut seen = seen_through_clipping(excess_rgb, blind, laser_rgb);
-    if seen == excess_rgb && matches!(laser.source, ColourSource::Learned { .. }) {
-        let share = clipped_share(&scored_px);
-        seen = raised_to_laser(excess_rgb, share.map(|s| s > CENSORED_SHARE), laser_rgb);
-    }
+    let seen = seen_through_clipping(excess_rgb, blind, laser_rgb);
     let filled_in = seen != excess_rgb;
     // A channel clipped on the surface has no local contrast either: its fill stands.
     if filled_in || local.len() < 12 {
@@ -1587,31 +1582,6 @@ fn seen_through_clipping(excess: [f64; 3], blind: [bool; 3], laser_rgb: [f64; 3]
         None => excess,
     }
 }
-
-/// `excess` with each `censored` channel raised to what the laser's colour (`laser_rgb`)
-/// asks at the contrast the other channels show along it, where that is more. A channel
-/// the blob's own pixels clip in ([`CENSORED_SHARE`]) has its mean excess cut at the clip: a
-/// bound from below, not a reading. On a fish whose green lies at 235-250 levels, below the
-/// clip over most of the ring (so not blind there), a 175-level dot read (25, 25, 39) levels
-/// of excess, 110 degrees off its unit's colour, and was no candidate (target-less
-/// 1000099/02). A pigment's other channels fall where the laser's rise, and ask for less
-/// than it shows: its reading stands. Only under a learned colour: from the prior, which
-/// spans lasers bluish to yellow-green, the fill echoed the prior in the dots a calibration
-/// learns from, and two companion calibrations (target-less 1000219 and 1000221) then lost
-/// nine dots between them.
-fn raised_to_laser(excess: [f64; 3], censored: [bool; 3], laser_rgb: [f64; 3]) -> [f64; 3] {
-    if !censored.iter().any(|&c| c) {
-        return excess;
-    }
-    match along_seen(excess, censored.map(|c| !c), laser_rgb) {
-        Some(along) => [0, 1, 2].map(|c| if censored[c] { excess[c].max(along * laser_rgb[c]) } else { excess[c] }),
-        None => excess,
-    }
-}
-
-/// Share of a blob's scored pixels clipped in a channel beyond which that channel's excess
-/// is a bound, not a reading ([`raised_to_laser`]). Not tuned: the one value tried.
-const CENSORED_SHARE: f64 = 0.25;
 
 /// The multiple of the laser's colour `laser_rgb` that `values` (R, G, B) show in the
 /// channels `seen`, by least squares over them; `None` when those channels carry less than
@@ -2001,29 +1971,6 @@ mod tests {
         let colour = LaserColourModel::from_unit(&unit).expect("a green laser with blue");
         let dot = candidate_at(&data, (w, h), truth, &DotDetectorParams { colour, ..DotDetectorParams::default() });
         assert!((dot.pixel - truth).norm() < 0.5, "{:?} against {truth:?}", dot.pixel);
-    }
-
-    /// The excess a 175-level dot read on a fish whose green lies at 235-250 (target-less
-    /// 1000099/02): green cut by the clip to 25 levels where red and blue show 25 and 39.
-    /// Green, censored, is raised to what red and blue ask of the unit's colour, and the
-    /// excess is the laser's; an algae tuft's excess there (green up, red and blue down)
-    /// asks for less green than it shows and stands, as does a channel not censored.
-    #[test]
-    fn a_channel_cut_by_the_clip_is_raised_to_the_lasers_colour_not_lowered() {
-        let colour = LaserColourModel::from_unit(&fslcal_core::unit_file::LaserColour {
-            rgb: [0.24, 0.89, 0.39],
-            spread_rad: 0.08,
-            dots: 7,
-        })
-        .expect("a green laser with blue");
-        let green = [false, true, false];
-        let dot = raised_to_laser([25.0, 25.0, 39.0], green, colour.rgb);
-        assert!(dot[1] > 80.0 && dot[0] == 25.0 && dot[2] == 39.0, "{dot:?}");
-        assert!(colour.angle_rad(dot) < 0.1, "{}", colour.angle_rad(dot));
-        assert!(colour.angle_rad([25.0, 25.0, 39.0]) > 1.0, "as read, far off the laser's");
-        let tuft = [-20.0, 30.0, -30.0];
-        assert_eq!(raised_to_laser(tuft, green, colour.rgb), tuft);
-        assert_eq!(raised_to_laser([25.0, 25.0, 39.0], [false; 3], colour.rgb), [25.0, 25.0, 39.0]);
     }
 
     /// A green dot on a white square 12 px from a black one, in clear blue water: its colour
