@@ -1802,6 +1802,12 @@ mod tests {
         dot.unwrap_or_else(|| panic!("no candidate at the dot: {c:?}"))
     }
 
+    /// A unit's learned colour for a green laser with a blue second channel, from 7 dots.
+    fn green_laser_with_blue() -> LaserColourModel {
+        let unit = fslcal_core::unit_file::LaserColour { rgb: [0.31, 0.88, 0.36], spread_rad: 0.08, dots: 7 };
+        LaserColourModel::from_unit(&unit).expect("a green laser with blue")
+    }
+
     /// A surface's colour lit by `dot` levels of a laser of colour `laser`, with `noise`.
     fn lit(surface: [f64; 3], laser: [f64; 3], dot: f64, noise: f64) -> [f64; 3] {
         [0, 1, 2].map(|c| surface[c] + laser[c] * dot + noise)
@@ -1967,8 +1973,7 @@ mod tests {
             let shade = 0.5 * (x as f64 - truth.x) + 0.3 * (y as f64 - truth.y);
             lit([88.0, 236.0, 78.0 + shade], laser, dot, grain(x, y))
         });
-        let unit = fslcal_core::unit_file::LaserColour { rgb: [0.31, 0.88, 0.36], spread_rad: 0.08, dots: 7 };
-        let colour = LaserColourModel::from_unit(&unit).expect("a green laser with blue");
+        let colour = green_laser_with_blue();
         let dot = candidate_at(&data, (w, h), truth, &DotDetectorParams { colour, ..DotDetectorParams::default() });
         assert!((dot.pixel - truth).norm() < 0.5, "{:?} against {truth:?}", dot.pixel);
     }
@@ -2419,8 +2424,7 @@ mod tests {
     fn a_dot_on_an_algae_tuft_is_not_judged_by_the_tufts_size() {
         let (w, h) = (240usize, 200usize);
         let truth = Vec2::new(120.4, 100.3);
-        let unit = fslcal_core::unit_file::LaserColour { rgb: [0.31, 0.88, 0.36], spread_rad: 0.08, dots: 7 };
-        let colour = LaserColourModel::from_unit(&unit).expect("a green laser with blue");
+        let colour = green_laser_with_blue();
         let params = DotDetectorParams { colour, ..DotDetectorParams::default() };
         let tuft = |dot: f64, middle: f64| {
             paint(w, h, |x, y| {
