@@ -70,6 +70,10 @@ pub struct SearchRegion {
     /// a pixel's background is then its own square's level, not a window's mean over black
     /// and white squares ([`board_background`]).
     pub squares: Vec<[Vec2; 4]>,
+    /// One of several regions that overlap by more than a blob's reach (the pieces of the
+    /// band along a laser line): a blob this region's edge cuts is seen whole in another,
+    /// and is left to it ([`cut_by_region`]).
+    pub overlapping_pieces: bool,
 }
 
 /// One dot-like blob.
@@ -1185,6 +1189,9 @@ fn blob_candidate(
         return None;
     }
     let m = measure_blob(maps, pixels)?;
+    if region.overlapping_pieces && cut_by_region(m.bbox, maps.roi, img) {
+        return None;
+    }
     // Centre: intensity-weighted centroid of the blob (the core weighted at the peak),
     // over the blob's pixels grown by two, so the weights fall off symmetrically.
     if m.snr < params.min_snr {
@@ -1305,6 +1312,24 @@ fn blob_candidate(
         judged_excess_rgb,
         colour_filled_in: colour.filled_in,
     })
+}
+
+/// Whether a blob's box (ROI pixels) reaches an edge of the region's ROI that is not the
+/// photo's: only part of the blob is measured there, its background window one-sided. Of
+/// such measures, along a laser line whose pieces overlap, 10 px of a faint dot and 55 px of
+/// texture beside it read as one plausible blob centred 6 px off the dot and taken (fresh
+/// target-less 1000252/03), where the piece that saw the dot whole had refused it; a
+/// tuft's piece, plausible as a dot, was taken on a laser-off photo (1000251/18). Left to
+/// the pieces that see blobs whole: on the tuning and looked-at target-less sets and
+/// 1000224-247 (1580 photos) right 908 -> 909, wrong 15 -> 13; on fresh 1000248-263 (320
+/// photos) right 177 -> 177, wrong 7 -> 4. Two dots were found only in such a part (176
+/// and 441 levels on bright surfaces, their whole blobs' colour read off the laser's) and
+/// are lost.
+fn cut_by_region((x0, x1, y0, y1): BlobBox, roi: Roi, img: &ColourView) -> bool {
+    (x0 == 0 && roi.x0 > 0)
+        || (y0 == 0 && roi.y0 > 0)
+        || (x1 + 1 == roi.w && roi.x0 + roi.w < img.width)
+        || (y1 + 1 == roi.h && roi.y0 + roi.h < img.height)
 }
 
 /// Most pixels a dot's lit glow clips over, in dots' largest areas ([`lit_clipped_around`]).
@@ -1836,6 +1861,7 @@ mod tests {
             polygon: vec![Vec2::new(0.0, 0.0), Vec2::new(x1, 0.0), Vec2::new(x1, y1), Vec2::new(0.0, y1)],
             band: None,
             squares,
+            overlapping_pieces: false,
         }
     }
 
@@ -2221,13 +2247,18 @@ mod tests {
         let params = DotDetectorParams::default();
         let line = vec![Vec2::new(0.0, 60.4), Vec2::new(199.0, 60.4)];
         let polygon = vec![Vec2::new(0.0, 30.0), Vec2::new(199.0, 30.0), Vec2::new(199.0, 90.0), Vec2::new(0.0, 90.0)];
-        let band = SearchRegion { polygon: polygon.clone(), band: Some((line, 30.0)), squares: Vec::new() };
+        let band = SearchRegion {
+            polygon: polygon.clone(),
+            band: Some((line, 30.0)),
+            squares: Vec::new(),
+            overlapping_pieces: false,
+        };
         let c = find_dot_candidates(&view(&data, w, h), &band, &params, 8);
         let on_glint = c.iter().find(|c| (c.pixel - glint).norm() < 3.0);
         assert!(on_glint.is_some_and(|g| g.saturated_core), "the merged blob sits on the glint: {c:?}");
         let dot = c.iter().find(|c| (c.pixel - truth).norm() < 1.0);
         assert!(dot.is_some_and(|d| d.split_from_blob), "{c:?}");
-        let whole = SearchRegion { polygon, band: None, squares: Vec::new() };
+        let whole = SearchRegion { polygon, band: None, squares: Vec::new(), overlapping_pieces: false };
         let c = find_dot_candidates(&view(&data, w, h), &whole, &params, 8);
         assert!(c.iter().all(|c| (c.pixel - truth).norm() >= 1.0 && !c.split_from_blob), "{c:?}");
     }
@@ -2246,7 +2277,7 @@ mod tests {
         let line = vec![Vec2::new(x, 0.0), Vec2::new(x, bottom)];
         let polygon =
             vec![Vec2::new(left, 0.0), Vec2::new(right, 0.0), Vec2::new(right, bottom), Vec2::new(left, bottom)];
-        let band = SearchRegion { polygon, band: Some((line, half)), squares: Vec::new() };
+        let band = SearchRegion { polygon, band: Some((line, half)), squares: Vec::new(), overlapping_pieces: false };
         find_dot_candidates(&view(data, w, h), &band, params, max)
     }
 
@@ -2658,6 +2689,7 @@ mod tests {
             ],
             band: None,
             squares: Vec::new(),
+            overlapping_pieces: false,
         };
         assert!(find_dot_candidates(&view, &right_half, &p, 4).is_empty());
         let band = SearchRegion {
@@ -2672,5 +2704,30 @@ mod tests {
         let c = find_dot_candidates(&view, &band, &p, 4);
         assert_eq!(c.len(), 1);
         assert!((c[0].pixel - truth).norm() < 0.15, "{:?}", c[0].pixel);
+    }
+
+    /// A region's edge that cuts a blob leaves only part of it to measure: one of several
+    /// overlapping pieces leaves it to the piece that sees it whole, a lone region keeps it.
+    /// The dot lies 2 px inside the left edge of the piece: measured there it is half a dot
+    /// centred off the truth.
+    #[test]
+    fn a_blob_cut_by_an_overlapping_pieces_edge_is_left_to_another_piece() {
+        let truth = Vec2::new(61.3, 80.7);
+        let (data, w, h) = synthetic(truth, Vec2::new(150.0, 40.0), false);
+        let view = view(&data, w, h);
+        let p = DotDetectorParams::default();
+        let piece = |x0: f64, overlapping_pieces: bool| SearchRegion {
+            polygon: vec![Vec2::new(x0, 0.0), Vec2::new(199.0, 0.0), Vec2::new(199.0, 149.0), Vec2::new(x0, 149.0)],
+            band: Some((vec![Vec2::new(0.0, 80.0), Vec2::new(199.0, 80.0)], 20.0)),
+            squares: Vec::new(),
+            overlapping_pieces,
+        };
+        let near = |c: &[DotCandidate]| c.iter().any(|c| (c.pixel - truth).norm() < 8.0);
+        let lone = find_dot_candidates(&view, &piece(59.0, false), &p, 4);
+        assert!(near(&lone), "a lone region measures the part it holds: {lone:?}");
+        let cut = find_dot_candidates(&view, &piece(59.0, true), &p, 4);
+        assert!(!near(&cut), "{cut:?}");
+        let whole = find_dot_candidates(&view, &piece(30.0, true), &p, 4);
+        assert!(whole.len() == 1 && (whole[0].pixel - truth).norm() < 0.15, "{whole:?}");
     }
 }

@@ -33,7 +33,8 @@ pub fn find_near(
         })
         .collect();
     let squares = squares.iter().map(|q| q.map(|p| p - offset)).collect();
-    let region = SearchRegion { polygon, band: Some((vec![predicted - offset], radius_px)), squares };
+    let region =
+        SearchRegion { polygon, band: Some((vec![predicted - offset], radius_px)), squares, overlapping_pieces: false };
     on_target::find(surface, view, &region, &detector.sensitive(), 1).into_iter().next().map(|mut c| {
         c.pixel += offset;
         c

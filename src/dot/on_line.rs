@@ -723,7 +723,8 @@ fn search_pieces(
         let sag = piece.iter().map(|p| ((p - a).dot(&across)).abs()).fold(0.0, f64::max);
         let (s, t) = (along * pad, across * (pad + sag));
         let polygon = vec![a - s - t, b + s - t, b + s + t, a - s + t];
-        let region = SearchRegion { polygon, band: Some((line.to_vec(), hw)), squares: Vec::new() };
+        let region =
+            SearchRegion { polygon, band: Some((line.to_vec(), hw)), squares: Vec::new(), overlapping_pieces: true };
         for c in find_dot_candidates(img, &region, params, PIECE_CANDIDATES) {
             keep_stronger(&mut found, c);
         }

@@ -243,7 +243,7 @@ fn examine(job: &LaserJob, path: &Path, budget: &CropBudget) -> Result<PhotoResu
         Some(px) => (vec![hand_candidate(px)], DotSource::Hand),
         None => {
             let squares = board_squares(job, &corners);
-            let region = SearchRegion { polygon: outline.clone(), band: None, squares };
+            let region = SearchRegion { polygon: outline.clone(), band: None, squares, overlapping_pieces: false };
             // Blobs no dot could be at the target's distance are dropped before the cap, so
             // a crowd of them cannot push the dot out.
             let plane = pose.plane();
