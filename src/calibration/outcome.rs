@@ -207,19 +207,17 @@ pub struct CandidateCheck {
     pub distance_m: f64,
     /// Why it cannot be the dot under the laser the check believes; `None`: plausible.
     pub refused: Option<Refusal>,
-    /// `(offset / sigma)^2` against the calibrated laser.
-    #[serde(default)]
-    pub chi2: f64,
     /// How far its colour lies from the unit's learned laser colour (chroma angle and white
     /// part), in sigmas of the colour's spread and the blob's noise; null under the prior.
     #[serde(default)]
     pub colour_off_sigmas: Option<f64>,
-    /// Pixels of the blob with a clipped channel, with all three clipped, and clipped in the
-    /// laser's own channels around its white part.
+    /// Pixels of the blob with a clipped channel.
     #[serde(default)]
     pub saturated_px: usize,
+    /// Pixels of the blob with all three channels clipped.
     #[serde(default)]
     pub white_px: usize,
+    /// Pixels clipped in the laser's own channels around its white part.
     #[serde(default)]
     pub lit_clipped_px: usize,
     /// Found by the second, more sensitive look close to the line.
@@ -251,7 +249,6 @@ impl CandidateCheck {
             sigma_px: c.gate.sigma_px,
             distance_m: c.gate.depth_m,
             refused,
-            chi2: c.gate.chi2,
             colour_off_sigmas: c.colour_sigmas,
             saturated_px: c.candidate.saturated_px,
             white_px: c.candidate.white_px,
