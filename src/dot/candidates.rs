@@ -1736,17 +1736,24 @@ fn ring_surfaces(ring: &[[f64; 3]], near: &[f64], clipped_core: bool) -> RingSur
         lo = a.iter().sum::<f64>() / a.len() as f64;
         hi = b.iter().sum::<f64>() / b.len() as f64;
     }
+    if hi - lo < SURFACE_SPLIT_LEVELS {
+        return RingSurfaces::One(ring.to_vec());
+    }
     let split = 0.5 * (lo + hi);
+    // The spreads only for the rings the gap has not settled: most are one surface.
     let one = if clipped_core {
         hi < 1.5 * lo
     } else {
-        let spread = |mean: f64, bright: bool| {
-            let side: Vec<f64> = sums.iter().copied().filter(|&v| (v >= split) == bright).collect();
-            (side.iter().map(|v| (v - mean).powi(2)).sum::<f64>() / side.len().max(1) as f64).sqrt()
-        };
-        hi - lo < SURFACE_SPLIT_SPREADS * (spread(lo, false) + spread(hi, true))
+        let (mut squares, mut counts) = ([0.0f64; 2], [0usize; 2]);
+        for &v in &sums {
+            let side = usize::from(v >= split);
+            squares[side] += (v - [lo, hi][side]).powi(2);
+            counts[side] += 1;
+        }
+        let spread = |side: usize| (squares[side] / counts[side].max(1) as f64).sqrt();
+        hi - lo < SURFACE_SPLIT_SPREADS * (spread(0) + spread(1))
     };
-    if hi - lo < SURFACE_SPLIT_LEVELS || one {
+    if one {
         return RingSurfaces::One(ring.to_vec());
     }
     let (bright, dark): (Vec<_>, Vec<_>) = ring.iter().zip(&sums).partition(|(_, &v)| v >= split);
@@ -2069,19 +2076,21 @@ mod tests {
         assert!((dot.colour_angle_rad - true_angle).abs() < 0.15, "{} against {true_angle}", dot.colour_angle_rad);
     }
 
-    /// Two flat surfaces 1.49 times apart in brightness are two; a gradient over the same
-    /// span is one, however far its ends; around a clipped core the older factor rule stays.
+    /// Two flat surfaces 1.49 times apart in brightness are two; a ramp from 1 to 3 times a
+    /// surface's brightness is one (its halves' means 1.67 times apart, so the factor rule
+    /// alone split it); around a clipped core the factor rule stays.
     #[test]
     fn a_ring_is_two_surfaces_when_its_brightness_falls_in_two_tight_clusters() {
         let flat = |k: usize| if k % 2 == 0 { [25.0, 60.0, 55.0] } else { [36.0, 100.0, 72.0] };
         let jitter = |k: usize| ((k * 7) % 5) as f64 - 2.0;
         let two: Vec<[f64; 3]> = (0..60).map(|k| flat(k).map(|v| v + jitter(k))).collect();
         let ramp: Vec<[f64; 3]> =
-            (0..60).map(|k| [25.0, 60.0, 55.0].map(|v| v * (1.0 + 0.4 * k as f64 / 59.0))).collect();
+            (0..60).map(|k| [25.0, 60.0, 55.0].map(|v| v * (1.0 + 2.0 * k as f64 / 59.0))).collect();
         let near = [150.0; 8];
         assert!(matches!(ring_surfaces(&two, &near, false), RingSurfaces::Two { .. }));
         assert!(matches!(ring_surfaces(&ramp, &near, false), RingSurfaces::One(_)));
         assert!(matches!(ring_surfaces(&two, &near, true), RingSurfaces::One(_)));
+        assert!(matches!(ring_surfaces(&ramp, &near, true), RingSurfaces::Two { .. }));
     }
 
     /// A near dot of 3 000 levels on a bright cyan square of a board (green 215, blue 225,
