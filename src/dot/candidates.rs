@@ -605,7 +605,13 @@ fn prominent_peak(maps: &RoiMaps, pixels: &[usize], (line, half): &(Vec<Vec2>, f
 /// The spot [`peak_inside`] grows from `peak`: its pixels, labelled `id`, or `None` (the
 /// labels left as they were) when it is no local peak, covers more than `share` of the
 /// blob, or is one pixel.
-fn spot_at_peak(maps: &mut RoiMaps, pixels: &[usize], (own, id): (u32, u32), peak: usize, share: f64) -> Option<Vec<usize>> {
+fn spot_at_peak(
+    maps: &mut RoiMaps,
+    pixels: &[usize],
+    (own, id): (u32, u32),
+    peak: usize,
+    share: f64,
+) -> Option<Vec<usize>> {
     let (w, h) = (maps.roi.w, maps.roi.h);
     maps.label[peak] = id;
     // A clipped peak brings its whole clipped part, whose level is its brightest unclipped
