@@ -775,11 +775,10 @@ fn search_pieces(
 /// large, and was taken as the dot (tuning 3007/02).
 fn keep_stronger(found: &mut Vec<DotCandidate>, c: DotCandidate) {
     let same = |f: &DotCandidate| {
-        let d = (f.pixel - c.pixel).norm();
         if f.split_from_blob == c.split_from_blob {
-            d < 2.0 * f.radius_px.max(c.radius_px).max(2.0)
+            (f.pixel - c.pixel).norm() < 2.0 * f.radius_px.max(c.radius_px).max(2.0)
         } else {
-            d < 2.0 * f.radius_px.min(c.radius_px).max(2.0)
+            centred_alike(f, &c)
         }
     };
     let Some(k) = found.iter().position(same) else {
@@ -787,9 +786,8 @@ fn keep_stronger(found: &mut Vec<DotCandidate>, c: DotCandidate) {
         return;
     };
     let f = &found[k];
-    let centred_alike = (f.pixel - c.pixel).norm() < 2.0 * f.radius_px.min(c.radius_px).max(2.0);
     let (finer, merged) = if c.radius_px < f.radius_px { (&c, f) } else { (f, &c) };
-    let keep_new = if !centred_alike && finer.snr >= FINER_PART_SNR_SHARE * merged.snr {
+    let keep_new = if !centred_alike(f, &c) && finer.snr >= FINER_PART_SNR_SHARE * merged.snr {
         c.radius_px < f.radius_px
     } else {
         c.snr > f.snr
@@ -797,6 +795,12 @@ fn keep_stronger(found: &mut Vec<DotCandidate>, c: DotCandidate) {
     if keep_new {
         found[k] = c;
     }
+}
+
+/// Whether two measures of a place are centred alike: nearer than twice the smaller's
+/// radius (at least 2 px), as two measures of one blob are.
+fn centred_alike(a: &DotCandidate, b: &DotCandidate) -> bool {
+    (a.pixel - b.pixel).norm() < 2.0 * a.radius_px.min(b.radius_px).max(2.0)
 }
 
 /// Least share of a merged blob's SNR that a finer measure of part of it must carry to
@@ -822,22 +826,22 @@ mod tests {
         }
     }
 
-    /// The size rules at 1 m and 4 m: an unclipped dot is judged by its half-peak core
-    /// against the widest beam there, a clipped one may bloom to 1.85x the widest unclipped
-    /// blob, and to 3.5x when its own channel clips a dot's width beyond its white core,
-    /// never further; a wide blob at the threshold with a narrow core is a dot.
+    /// A blob's measure at (`x`, `y`) of radius `radius_px` and SNR `snr`, for
+    /// [`keep_stronger`].
+    fn measure_at(x: f64, y: f64, radius_px: f64, snr: f64) -> DotCandidate {
+        DotCandidate { radius_px, snr, ..crate::dot::on_target::hand_candidate(Vec2::new(x, y)) }
+    }
+
     /// Two pieces' measures of one place: a dot (SNR 500) and, 13 px away, the ragged blob
     /// it merged into with a tuft (SNR 300, 15 px); a third, far blob. Whichever piece is
     /// searched first, the dot's measure is kept and the far blob too.
     #[test]
     fn of_two_measures_of_one_blob_the_stronger_is_kept_whatever_the_order() {
-        let blob = |x: f64, y: f64, radius_px: f64, snr: f64| DotCandidate {
-            radius_px,
-            snr,
-            ..crate::dot::on_target::hand_candidate(Vec2::new(x, y))
-        };
-        let (dot, merged, far) =
-            (blob(100.0, 100.0, 4.0, 500.0), blob(100.0, 113.0, 15.0, 300.0), blob(300.0, 100.0, 5.0, 50.0));
+        let (dot, merged, far) = (
+            measure_at(100.0, 100.0, 4.0, 500.0),
+            measure_at(100.0, 113.0, 15.0, 300.0),
+            measure_at(300.0, 100.0, 5.0, 50.0),
+        );
         for order in [[&merged, &dot, &far], [&dot, &merged, &far], [&far, &merged, &dot]] {
             let mut found = Vec::new();
             for c in order {
@@ -854,11 +858,6 @@ mod tests {
     /// whole (SNR 377, 13 px) does not.
     #[test]
     fn a_finer_measure_carrying_most_of_a_merged_blobs_signal_stands_for_it() {
-        let blob = |x: f64, y: f64, radius_px: f64, snr: f64| DotCandidate {
-            radius_px,
-            snr,
-            ..crate::dot::on_target::hand_candidate(Vec2::new(x, y))
-        };
         let kept = |order: [&DotCandidate; 2]| {
             let mut found = Vec::new();
             for c in order {
@@ -866,8 +865,8 @@ mod tests {
             }
             found
         };
-        let (dot, merged) = (blob(137.7, 122.8, 4.8, 35.0), blob(127.0, 121.4, 6.0, 37.0));
-        let (fragment, tuft) = (blob(114.0, 77.0, 4.55, 66.0), blob(93.0, 84.0, 13.2, 377.0));
+        let (dot, merged) = (measure_at(137.7, 122.8, 4.8, 35.0), measure_at(127.0, 121.4, 6.0, 37.0));
+        let (fragment, tuft) = (measure_at(114.0, 77.0, 4.55, 66.0), measure_at(93.0, 84.0, 13.2, 377.0));
         for (a, b) in [(&dot, &merged), (&merged, &dot)] {
             assert_eq!(kept([a, b]), vec![dot.clone()]);
         }
@@ -914,6 +913,10 @@ mod tests {
         assert!(pieces.iter().all(|p| p.windows(2).all(|w| w[1].x >= w[0].x)));
     }
 
+    /// The size rules at 1 m and 4 m: an unclipped dot is judged by its half-peak core
+    /// against the widest beam there, a clipped one may bloom to 1.85x the widest unclipped
+    /// blob, and to 3.5x when its own channel clips a dot's width beyond its white core,
+    /// never further; a wide blob at the threshold with a narrow core is a dot.
     #[test]
     fn a_dots_core_must_fit_its_distance_and_a_clipped_one_blooms_only_so_far() {
         let camera = tg6_camera();
