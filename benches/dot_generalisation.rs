@@ -24,7 +24,7 @@
 //! reported as stalled and left out of their set's run.
 //! `cargo test --benches` runs a small smoke run instead.
 
-use calib_targets::variety::{ImpostorKind, Kind, NoDot, PhotoTruth, SeedSplit, VarietySet, HELD_OUT_FIRST_SEED};
+use calib_targets::variety::{Kind, NoDot, PhotoTruth, SeedSplit, VarietySet, HELD_OUT_FIRST_SEED};
 use serde_json::Value;
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
@@ -115,6 +115,27 @@ struct Answer {
     /// `laser`: "used" or "skipped"; `check`: "ok", "flag" or "none".
     status: String,
     reason: Option<String>,
+    /// `check`: every candidate it reported, with the scores that judged it.
+    candidates: Vec<Scored>,
+}
+
+/// One reported candidate's scores (`check --json`'s `candidates`).
+#[derive(Clone, Debug, Default)]
+struct Scored {
+    pixel: [f64; 2],
+    /// Sigmas off the laser's colour (`colour_off_sigmas`); `None` under the prior.
+    off_colour_sigmas: Option<f64>,
+    /// Why it was refused; `None` when it stayed a plausible dot.
+    refused: Option<String>,
+}
+
+fn scored_from(c: &Value) -> Option<Scored> {
+    let p = c["pixel"].as_array()?;
+    Some(Scored {
+        pixel: [p[0].as_f64()?, p[1].as_f64()?],
+        off_colour_sigmas: c["colour_off_sigmas"].as_f64(),
+        refused: c["refused"].as_str().map(String::from),
+    })
 }
 
 /// One photo's truth and answers.
@@ -271,9 +292,15 @@ fn run_laser(dir: &Path, target: &str, photos: &[PathBuf]) -> (Vec<Answer>, Stri
                 dot_px: None,
                 status: "stalled".into(),
                 reason: Some(format!("fslcal laser stalled (over {STALL_S:.0} s on this photo alone)")),
+                candidates: Vec::new(),
             },
             (Some(_), Some(f)) => f.next().expect("one answer per photo"),
-            (Some(t), None) => Answer { dot_px: None, status: "skipped".into(), reason: table_reason(&t.stderr, p) },
+            (Some(t), None) => Answer {
+                dot_px: None,
+                status: "skipped".into(),
+                reason: table_reason(&t.stderr, p),
+                candidates: Vec::new(),
+            },
         })
         .collect();
     let n = alone.iter().filter(|t| t.is_none()).count();
@@ -296,6 +323,7 @@ fn answer_from_laser(p: &Value) -> Answer {
         dot_px: p["dot_px"].as_array().map(|a| [a[0].as_f64().unwrap(), a[1].as_f64().unwrap()]),
         status: p["status"].as_str().unwrap_or("").into(),
         reason: p["reason"].as_str().map(String::from),
+        candidates: Vec::new(),
     }
 }
 
@@ -343,7 +371,7 @@ fn run_check(cal: &Path, photos: &[PathBuf]) -> Vec<Answer> {
         let why = String::from_utf8_lossy(&out.stderr).trim().to_string();
         return photos
             .iter()
-            .map(|_| Answer { dot_px: None, status: "none".into(), reason: Some(why.clone()) })
+            .map(|_| Answer { dot_px: None, status: "none".into(), reason: Some(why.clone()), candidates: Vec::new() })
             .collect();
     };
     v["photos"]
@@ -357,7 +385,9 @@ fn run_check(cal: &Path, photos: &[PathBuf]) -> Vec<Answer> {
                 (Some(_), Some(true)) => "flag",
                 _ => "ok",
             };
-            Answer { dot_px, status: status.into(), reason: p["reason"].as_str().map(String::from) }
+            let candidates =
+                p["candidates"].as_array().map_or_else(Vec::new, |cs| cs.iter().filter_map(scored_from).collect());
+            Answer { dot_px, status: status.into(), reason: p["reason"].as_str().map(String::from), candidates }
         })
         .collect()
 }
@@ -393,7 +423,12 @@ fn run_measure(dir: &Path, cal: &Path, photos: &[PathBuf], truths: &[PhotoTruth]
             let r = rows.iter().find(|r| r["photo"].as_str() == Some(&p.display().to_string()));
             let dot_px =
                 r.and_then(|r| r["dot_px"].as_array()).map(|a| [a[0].as_f64().unwrap(), a[1].as_f64().unwrap()]);
-            Answer { dot_px, status: if dot_px.is_some() { "dot" } else { "none" }.into(), reason: None }
+            Answer {
+                dot_px,
+                status: if dot_px.is_some() { "dot" } else { "none" }.into(),
+                reason: None,
+                candidates: Vec::new(),
+            }
         })
         .collect()
 }
@@ -526,7 +561,28 @@ fn print_table(title: &str, rows: &[Row], answer: &dyn Fn(&Row) -> Option<(Answe
     }
 }
 
-/// What the wrong dots were: the nearest impostor within its radius + 3 px, or "other".
+/// What lies at image point `p` by the truth: the laser's dot (within [`RIGHT_PX`], or
+/// inside the dot off its centre), the nearest impostor within its radius + 3 px, or the
+/// scene (texture, edge, corner).
+fn what_is(t: &PhotoTruth, p: [f64; 2]) -> String {
+    if let Some(d) = &t.dot {
+        let off = (d.pixel[0] - p[0]).hypot(d.pixel[1] - p[1]);
+        if off <= RIGHT_PX {
+            return "laser dot".into();
+        }
+        if off <= d.radius_px.max(RIGHT_PX) {
+            return "laser dot, off its centre".into();
+        }
+    }
+    t.impostors
+        .iter()
+        .map(|i| ((i.pixel[0] - p[0]).hypot(i.pixel[1] - p[1]), i))
+        .filter(|(d, i)| *d <= i.radius_px + 3.0)
+        .min_by(|a, b| a.0.total_cmp(&b.0))
+        .map_or_else(|| "scene (texture, edge, corner)".to_string(), |(_, i)| format!("{:?}", i.kind))
+}
+
+/// What the wrong dots were ([`what_is`]), laser and check answers.
 fn print_wrong_dots(rows: &[Row]) {
     let mut by: BTreeMap<(String, String), usize> = BTreeMap::new();
     for r in rows {
@@ -534,22 +590,51 @@ fn print_wrong_dots(rows: &[Row]) {
         if matches!(verdict(&r.truth, &r.answer, false), Verdict::Right) {
             continue;
         }
-        let near = r
-            .truth
-            .impostors
-            .iter()
-            .map(|i| ((i.pixel[0] - p[0]).hypot(i.pixel[1] - p[1]), i))
-            .filter(|(d, i)| *d <= i.radius_px + 3.0)
-            .min_by(|a, b| a.0.total_cmp(&b.0))
-            .map(|(_, i)| i.kind);
-        let what = near.map_or_else(|| "other (texture, edge, corner)".to_string(), |k: ImpostorKind| format!("{k:?}"));
-        *by.entry((r.truth.kind.name().into(), what)).or_default() += 1;
+        *by.entry((r.truth.kind.name().into(), what_is(&r.truth, p))).or_default() += 1;
     }
     println!("\nwrong dots by what they were (nearest impostor), laser and check answers");
     println!("| kind | taken for the dot | photos |");
     println!("|---|---|---|");
     for ((kind, what), n) in by {
         println!("| {kind} | {what} | {n} |");
+    }
+}
+
+/// Upper edges of the off-colour histogram's bins, sigmas; the gate is at 3.
+const OFF_COLOUR_BINS: [f64; 7] = [1.0, 2.0, 3.0, 5.0, 10.0, 30.0, f64::INFINITY];
+
+/// How the colour model's score separates the laser's dots from each impostor kind: every
+/// candidate `check` reported, by what the truth says it is, as a histogram of its sigmas
+/// off the laser's learned colour, and what became of it (refused and why, or plausible).
+fn print_score_histograms(rows: &[Row]) {
+    #[derive(Default)]
+    struct Bins {
+        off: [usize; OFF_COLOUR_BINS.len()],
+        prior: usize,
+        outcome: BTreeMap<String, usize>,
+    }
+    let mut by: BTreeMap<String, Bins> = BTreeMap::new();
+    for r in rows {
+        for c in &r.answer.candidates {
+            let b = by.entry(what_is(&r.truth, c.pixel)).or_default();
+            match c.off_colour_sigmas {
+                Some(z) => b.off[OFF_COLOUR_BINS.iter().position(|&e| z < e).unwrap_or(OFF_COLOUR_BINS.len() - 1)] += 1,
+                None => b.prior += 1,
+            }
+            *b.outcome.entry(c.refused.clone().unwrap_or_else(|| "plausible".into())).or_default() += 1;
+        }
+    }
+    if by.is_empty() {
+        return;
+    }
+    println!("\ncheck's candidates by what they are: sigmas off the learned laser colour (gate 3), and their outcome");
+    println!("| what | candidates | <1 | 1-2 | 2-3 | 3-5 | 5-10 | 10-30 | >=30 | prior colour | outcome |");
+    println!("|---|---|---|---|---|---|---|---|---|---|---|");
+    for (what, b) in &by {
+        let n = b.off.iter().sum::<usize>() + b.prior;
+        let bins: Vec<String> = b.off.iter().map(|k| k.to_string()).collect();
+        let outcome: Vec<String> = b.outcome.iter().map(|(k, v)| format!("{k} {v}")).collect();
+        println!("| {what} | {n} | {} | {} | {} |", bins.join(" | "), b.prior, outcome.join(", "));
     }
 }
 
@@ -652,6 +737,7 @@ fn main() {
     }
     print_missed(&rows);
     print_wrong_dots(&rows);
+    print_score_histograms(&rows);
     println!(
         "\n{} photos; rendering {:.0} s, fslcal {:.0} s ({:.2} s per photo)",
         rows.len(),
