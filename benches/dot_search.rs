@@ -141,6 +141,7 @@ fn main() {
             stride: img.width() as usize * 3,
             order: ChannelOrder::Rgb,
             data: img.as_raw(),
+            tone: None,
         };
         let t = Instant::now();
         let _ = find_dot_candidates(&view, &SearchRegion::default(), &DotDetectorParams::default(), 64);

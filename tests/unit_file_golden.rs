@@ -1,7 +1,7 @@
 //! The worked example in `docs/calib-format.md` is the format: this test rebuilds the example
 //! file (fixed contents, fixed key, fixed time) and compares it with the spec's annotated hex
 //! dump byte for byte, and checks that the dump's offsets and lengths add up. The spec's
-//! version 1 dump (as version 1 wrote the example) must still decode and verify.
+//! version 1 and 2 dumps (as those versions wrote the example) must still decode and verify.
 
 use fslcal_core::unit_file::{self, SignedUnitFile, EXAMPLE_SECRET_KEY, MAX_FILE_BYTES};
 
@@ -53,6 +53,19 @@ fn the_spec_example_decodes_to_the_example() {
     assert_eq!(f.key_id().to_string(), SignedUnitFile::decode(&bytes).unwrap().key_id().to_string());
     // The size the spec states.
     assert!(SPEC.contains(&format!("{} bytes", bytes.len())), "the spec should state the example's size");
+}
+
+#[test]
+fn the_spec_version_2_example_still_decodes_and_verifies() {
+    let bytes = dump_bytes("```hexdump-v2\n");
+    assert_eq!(bytes[4], 2, "the block is a version 2 file");
+    assert!(SPEC.contains(&format!("{} bytes", bytes.len())), "the spec should state the version 2 example's size");
+    let f = unit_file::verify(&bytes, &[unit_file::public_key(&EXAMPLE_SECRET_KEY)]).unwrap();
+    assert_eq!(f.version, 2);
+    // Version 2 read every photo as linear.
+    let mut expected = unit_file::example();
+    expected.laser_colour.as_mut().expect("the example has a colour").tone_gamma = 1.0;
+    assert_eq!(f.contents, expected);
 }
 
 #[test]

@@ -11,7 +11,7 @@ use embedded_graphics::prelude::*;
 use embedded_graphics_simulator::{OutputSettingsBuilder, SimulatorDisplay};
 use firmware_sim::screens::{self, rejection_lines};
 use firmware_sim::{Button, Calibration, Event, Firmware, Rejection, Screen};
-use fslcal_core::unit_file::{self, KeyId, EXAMPLE_SECRET_KEY};
+use fslcal_core::unit_file::{self, KeyId, EXAMPLE_SECRET_KEY, VERSION};
 
 /// 2026-11-25 07:30 UTC: 176 days after the example calibration (2026-06-01 09:30).
 const DIVE_DAY: i64 = 1_795_591_800;
@@ -49,8 +49,8 @@ fn each_bad_file_reaches_its_own_reason() {
         (
             "newer format",
             newer_format_file(),
-            Rejection::NewerFormat { found: 3, supported: 2 },
-            ["NEWER FORMAT", "file v3, reads v2", "update the firmware"],
+            Rejection::NewerFormat { found: VERSION + 1, supported: VERSION },
+            ["NEWER FORMAT", &format!("file v{}, reads v{VERSION}", VERSION + 1), "update the firmware"],
         ),
         (
             "truncated",

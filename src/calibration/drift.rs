@@ -69,13 +69,16 @@ pub fn check(cal: &Calibration, photos: &[PathBuf], progress: &(dyn Fn() + Sync)
             progress();
             let mut out = PhotoCheck { file: path.display().to_string(), ..PhotoCheck::default() };
             let candidates = match photo? {
-                Ok(photo) => match line_candidates(&photo.colour(), &cal.camera, &cal.laser, &search) {
-                    Ok(c) => c,
-                    Err(e) => {
-                        out.reason = Some(CheckSkip::NoDot(e).into());
-                        Vec::new()
+                Ok(photo) => {
+                    match line_candidates(&photo.colour(&search.detector.colour.tone), &cal.camera, &cal.laser, &search)
+                    {
+                        Ok(c) => c,
+                        Err(e) => {
+                            out.reason = Some(CheckSkip::NoDot(e).into());
+                            Vec::new()
+                        }
                     }
-                },
+                }
                 Err(why) => {
                     out.reason = Some(why.into());
                     Vec::new()

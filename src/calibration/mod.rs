@@ -124,6 +124,8 @@ pub enum Implausibility {
     LaserBackward,
     #[error("laser covariance not finite")]
     Covariance,
+    #[error("laser colour's tone curve gamma outside 1-3")]
+    ToneCurve,
 }
 
 /// The `camera` object every JSON output uses: `image_size` [w, h] and `fx`, `fy`, `cx`, `cy`
@@ -194,6 +196,9 @@ fn parse_laser_json(bytes: &[u8], path: &Path) -> Result<Calibration, Calibratio
     if r.laser.covariance.iter().flatten().any(|v| !v.is_finite()) {
         return Err(CalibrationError::Implausible { path: name, why: Implausibility::Covariance });
     }
+    if r.laser_colour.is_some_and(|c| crate::dot::colour::ToneCurve::power(c.tone_gamma).is_none()) {
+        return Err(CalibrationError::Implausible { path: name, why: Implausibility::ToneCurve });
+    }
     Ok(Calibration {
         camera,
         laser,
@@ -206,6 +211,7 @@ fn parse_laser_json(bytes: &[u8], path: &Path) -> Result<Calibration, Calibratio
             rgb: c.rgb.map(|v| v as f32),
             spread_rad: c.spread_rad as f32,
             dots: c.dots,
+            tone_gamma: c.tone_gamma as f32,
         }),
         source: path.to_path_buf(),
     })
@@ -274,6 +280,23 @@ mod tests {
         // A pigment of the prior's bluish green passes the prior better than this laser's colour.
         let bluish = [0.15 * 40.0, 0.9 * 40.0, 0.4 * 40.0];
         assert!(colour.score(bluish, 20, 2.0).sigmas < plain.dot_detector().colour.score(bluish, 20, 2.0).sigmas);
+        // Written before the tone curve was learned: read as linear.
+        assert_eq!(colour.tone.gamma(), 1.0);
+    }
+
+    #[test]
+    fn reads_photos_through_the_learned_tone_curve_and_refuses_an_impossible_one() {
+        let mut v = example();
+        v["laser_colour"] =
+            serde_json::json!({"rgb": [0.3, 0.9, 0.3], "spread_rad": 0.08, "dots": 9, "tone_gamma": 2.25});
+        let cal = parse_laser_json(&serde_json::to_vec(&v).unwrap(), Path::new("x.json")).unwrap();
+        let tone = cal.line_search().detector.colour.tone;
+        assert_eq!(tone.gamma(), 2.25);
+        // Level 128 of an sRGB-like JPEG is a fifth of white in light.
+        assert_eq!(tone.table().map(|t| t[128]), Some(54));
+        v["laser_colour"]["tone_gamma"] = serde_json::json!(0.4);
+        let e = parse_laser_json(&serde_json::to_vec(&v).unwrap(), Path::new("x.json")).unwrap_err().to_string();
+        assert!(e.starts_with("x.json") && e.contains("tone curve"), "{e}");
     }
 
     #[test]

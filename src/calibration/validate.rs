@@ -214,7 +214,8 @@ fn choose_dot(job: &ValidationJob, t: &LocatedTarget) -> Result<(Vec2, DotFix), 
     let (camera, laser) = (&job.cal.camera, &job.cal.laser);
     let search = job.cal.line_search();
     let plane = t.pose.plane();
-    let all = line_candidates(&t.photo.colour(), camera, laser, &search).map_err(|_| ValidationSkip::NoDot)?;
+    let all = line_candidates(&t.photo.colour(&search.detector.colour.tone), camera, laser, &search)
+        .map_err(|_| ValidationSkip::NoDot)?;
     let on_target: Vec<LineCandidate> =
         all.into_iter().filter(|c| inside_convex(&t.outline_px, c.candidate.pixel)).collect();
     // Distance by the laser against the target's plane at the blob, as a log ratio.

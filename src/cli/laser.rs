@@ -451,6 +451,7 @@ fn document(args: &LaserArgs, job: &LaserJob, cal: &LaserCalibration, identity: 
             rgb: c.rgb,
             spread_rad: c.spread_rad,
             dots: c.to_unit().dots,
+            tone_gamma: c.tone.gamma(),
         }),
         unit: None,
         dots_file: None,
@@ -653,12 +654,19 @@ fn summary(args: &LaserArgs, job: &LaserJob, cal: &LaserCalibration) -> String {
     s += &candidate_lines(&cal.photos);
     if let Some(c) = &cal.laser_colour {
         s += &format!(
-            "laser colour: RGB ({:.3}, {:.3}, {:.3}), spread {:.1} deg, from {} dots\n",
+            "laser colour: RGB ({:.3}, {:.3}, {:.3}), spread {:.1} deg, from {} dots{}\n",
             c.rgb[0],
             c.rgb[1],
             c.rgb[2],
             c.spread_rad.to_degrees(),
-            c.to_unit().dots
+            c.to_unit().dots,
+            match c.tone.table() {
+                None => String::new(),
+                Some(_) => format!(
+                    "; photos read through a camera tone curve of gamma {:.1} (read as linear, the dots' colours scattered)",
+                    c.tone.gamma()
+                ),
+            }
         );
     }
     let worst = f

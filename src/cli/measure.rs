@@ -204,7 +204,8 @@ fn search_dot(cal: &Calibration, photo: &Path) -> Result<Vec2, Withheld> {
     let decoded = crate::vision::EncodedPhoto::read(photo)
         .and_then(|p| p.decode())
         .map_err(|e| no_dot(DotMissing::Unreadable { message: e.to_string() }))?;
-    find_dot_on_laser_line(&decoded.colour(), &cal.camera, &cal.laser, &cal.line_search())
+    let search = cal.line_search();
+    find_dot_on_laser_line(&decoded.colour(&search.detector.colour.tone), &cal.camera, &cal.laser, &search)
         .map(|d| d.pixel)
         .map_err(|e| no_dot(DotMissing::NotFound(e)))
 }

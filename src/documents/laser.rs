@@ -41,6 +41,14 @@ pub struct LaserColourJson {
     pub rgb: [f64; 3],
     pub spread_rad: f64,
     pub dots: u16,
+    /// The camera's tone curve the colour was measured through (`ToneCurve`); 1 (linear)
+    /// in results written before it was learned.
+    #[serde(default = "linear_tone")]
+    pub tone_gamma: f64,
+}
+
+fn linear_tone() -> f64 {
+    1.0
 }
 
 /// `fslcal laser`'s result. The fit's figures are optional when read (see the module

@@ -11,7 +11,7 @@
 //! Pure Rust on an image view: the vision module hands in the pixels.
 
 use super::centre::{refine_centre, weighted_centre, Glint};
-use super::colour::{beyond_colour_gate, with_chroma_of, LaserColourModel};
+use super::colour::{beyond_colour_gate, with_chroma_of, LaserColourModel, ToneCurve};
 use super::outline::{clipped_at_centre, hollow, outline_roughness, ContrastMap};
 use fslcal_core::Vec2;
 
@@ -45,13 +45,24 @@ pub struct ColourView<'a> {
     pub stride: usize,
     pub order: ChannelOrder,
     pub data: &'a [u8],
+    /// Each byte read through this table ([`ToneCurve::table`]), or as it is.
+    pub tone: Option<&'a [u8; 256]>,
 }
 
-impl ColourView<'_> {
+impl<'a> ColourView<'a> {
+    /// The view read through `tone`'s inverse: linear levels.
+    pub fn through(self, tone: &'a ToneCurve) -> ColourView<'a> {
+        ColourView { tone: tone.table(), ..self }
+    }
+
     #[inline]
     pub(crate) fn rgb(&self, x: usize, y: usize) -> (i32, i32, i32) {
         let i = y * self.stride + 3 * x;
-        let (a, b, c) = (self.data[i] as i32, self.data[i + 1] as i32, self.data[i + 2] as i32);
+        let (a, b, c) = match self.tone {
+            None => (self.data[i], self.data[i + 1], self.data[i + 2]),
+            Some(t) => (t[self.data[i] as usize], t[self.data[i + 1] as usize], t[self.data[i + 2] as usize]),
+        };
+        let (a, b, c) = (a as i32, b as i32, c as i32);
         match self.order {
             ChannelOrder::Rgb => (a, b, c),
             ChannelOrder::Bgr => (c, b, a),
@@ -1876,8 +1887,45 @@ mod tests {
         data
     }
 
+    /// A camera's tone curve bends the light a laser adds: read as it is, the same dot's
+    /// chroma differs over a dark and a light surface; read through the curve, it is the
+    /// laser's own on both.
+    #[test]
+    fn reads_a_dot_through_the_cameras_tone_curve_as_the_lasers_colour() {
+        let (w, h, gamma) = (160, 80, 2.2);
+        let laser = [0.25, 0.9, 0.35];
+        // Linear light: dark blue-green water on the left, pale paper on the right, a dot on
+        // each; the JPEG's levels are that light through the curve.
+        let dots = [(Vec2::new(40.0, 40.0), [4.0, 18.0, 30.0]), (Vec2::new(120.0, 40.0), [170.0, 150.0, 110.0])];
+        let data = paint(w, h, |x, y| {
+            let (centre, surface) = if x < w / 2 { dots[0] } else { dots[1] };
+            let lit = spot(x, y, centre, 70.0, 2.5);
+            core::array::from_fn(|i| 255.0 * ((surface[i] + laser[i] * lit) / 255.0f64).min(1.0).powf(1.0 / gamma))
+        });
+        let unit =
+            fslcal_core::unit_file::LaserColour { rgb: [0.25, 0.9, 0.35], spread_rad: 0.06, dots: 8, tone_gamma: 1.0 };
+        let angles = |tone: ToneCurve| -> Vec<f64> {
+            let params = DotDetectorParams {
+                colour: LaserColourModel::from_unit(&unit).unwrap().through(tone),
+                ..DotDetectorParams::default()
+            };
+            let found = find_dot_candidates(&view(&data, w, h).through(&tone), &SearchRegion::default(), &params, 4);
+            dots.iter()
+                .map(|(centre, _)| {
+                    let c = found.iter().find(|c| (c.pixel - centre).norm() < 1.0).expect("each dot found");
+                    c.colour_angle_rad.to_degrees()
+                })
+                .collect()
+        };
+        // Measured: 28.5 and 6.9 degrees read as is, 0.24 and 0.17 through the curve.
+        let curved = angles(ToneCurve::linear());
+        let linearised = angles(ToneCurve::power(gamma).unwrap());
+        assert!(linearised.iter().all(|a| *a < 1.0), "{linearised:?}");
+        assert!(curved[0] > 15.0 && curved[1] > 4.0, "{curved:?}");
+    }
+
     fn view(data: &[u8], w: usize, h: usize) -> ColourView<'_> {
-        ColourView { width: w, height: h, stride: w * 3, order: ChannelOrder::Rgb, data }
+        ColourView { width: w, height: h, stride: w * 3, order: ChannelOrder::Rgb, data, tone: None }
     }
 
     /// The level a Gaussian spot of `peak` levels and `sigma_px` centred at `centre` has at
@@ -1897,7 +1945,8 @@ mod tests {
 
     /// A unit's learned colour for a green laser with a blue second channel, from 7 dots.
     fn green_laser_with_blue() -> LaserColourModel {
-        let unit = fslcal_core::unit_file::LaserColour { rgb: [0.31, 0.88, 0.36], spread_rad: 0.08, dots: 7 };
+        let unit =
+            fslcal_core::unit_file::LaserColour { rgb: [0.31, 0.88, 0.36], spread_rad: 0.08, dots: 7, tone_gamma: 1.0 };
         LaserColourModel::from_unit(&unit).expect("a green laser with blue")
     }
 
@@ -2042,7 +2091,12 @@ mod tests {
             let dot = c.iter().find(|c| (c.pixel - truth).norm() < 8.0).map(|c| c.pixel);
             dot.unwrap_or_else(|| panic!("no candidate near the dot: {c:?}"))
         };
-        let unit = fslcal_core::unit_file::LaserColour { rgb: [0.51, 0.85, 0.085], spread_rad: 0.06, dots: 8 };
+        let unit = fslcal_core::unit_file::LaserColour {
+            rgb: [0.51, 0.85, 0.085],
+            spread_rad: 0.06,
+            dots: 8,
+            tone_gamma: 1.0,
+        };
         let learned = centre(LaserColourModel::from_unit(&unit).expect("a yellow-green laser"));
         let prior = centre(LaserColourModel::green_prior());
         assert!((learned - truth).norm() < 0.5, "learned colour: {learned:?}");
@@ -2688,7 +2742,12 @@ mod tests {
                 [88.0 + 0.12 * dot + noise, 262.0 + dot + noise, 258.0 + 0.5 * dot + noise]
             })
         };
-        let unit = fslcal_core::unit_file::LaserColour { rgb: [0.108, 0.893, 0.438], spread_rad: 0.06, dots: 8 };
+        let unit = fslcal_core::unit_file::LaserColour {
+            rgb: [0.108, 0.893, 0.438],
+            spread_rad: 0.06,
+            dots: 8,
+            tone_gamma: 1.0,
+        };
         let p = DotDetectorParams {
             colour: LaserColourModel::from_unit(&unit).expect("a green laser"),
             ..Default::default()
@@ -2725,7 +2784,8 @@ mod tests {
                 [18.0 + 0.45 * dot + noise, 120.0 + dot + noise, 125.0 + 0.2 * dot + noise]
             }
         });
-        let unit = fslcal_core::unit_file::LaserColour { rgb: [0.49, 0.86, 0.13], spread_rad: 0.06, dots: 8 };
+        let unit =
+            fslcal_core::unit_file::LaserColour { rgb: [0.49, 0.86, 0.13], spread_rad: 0.06, dots: 8, tone_gamma: 1.0 };
         let p = DotDetectorParams {
             colour: LaserColourModel::from_unit(&unit).expect("a green laser"),
             ..Default::default()

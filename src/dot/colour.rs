@@ -13,7 +13,7 @@
 //! from the calibration's accepted dots; before a unit has one, a prior that covers green
 //! lasers from 515 to 560 nm.
 
-use fslcal_core::unit_file::LaserColour;
+use fslcal_core::unit_file::{LaserColour, TONE_GAMMA_RANGE};
 
 /// Unit vector of equal R, G and B.
 const WHITE: [f64; 3] = [0.577_350_269_189_625_8; 3];
@@ -31,6 +31,50 @@ const PRIOR_SPREAD_RAD: f64 = 0.40;
 /// Narrowest spread a learned model is trusted to: JPEG chroma subsampling and noise blur a
 /// real dot's colour by this much even when every dot shares one laser.
 const MIN_SPREAD_RAD: f64 = 0.06;
+
+/// The camera's tone curve, as the detector undoes it: a power law `v_linear = 255
+/// (v / 255)^gamma` on each 8-bit level. An in-camera JPEG lifts shadows and squeezes
+/// highlights (a TG-6 writes sRGB, about gamma 2.2), so the light a laser adds shows a
+/// different contrast and colour over a black square than over a white one, channel by
+/// channel; read through the curve's inverse it is the same light everywhere. Linear for raw
+/// photos' levels, and until a calibration has learned the unit's curve.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ToneCurve {
+    gamma: f64,
+    /// Each 8-bit level read linear, rounded to a level.
+    table: [u8; 256],
+}
+
+impl ToneCurve {
+    pub fn linear() -> ToneCurve {
+        ToneCurve { gamma: 1.0, table: core::array::from_fn(|v| v as u8) }
+    }
+
+    /// The power law of `gamma`; `None` outside [`TONE_GAMMA_RANGE`] or not finite.
+    pub fn power(gamma: f64) -> Option<ToneCurve> {
+        let range = TONE_GAMMA_RANGE[0] as f64..=TONE_GAMMA_RANGE[1] as f64;
+        if !range.contains(&gamma) {
+            return None;
+        }
+        let table = core::array::from_fn(|v| (255.0 * (v as f64 / 255.0).powf(gamma)).round() as u8);
+        Some(ToneCurve { gamma, table })
+    }
+
+    pub fn gamma(&self) -> f64 {
+        self.gamma
+    }
+
+    /// The level table, `None` for a linear camera (levels read as they are).
+    pub fn table(&self) -> Option<&[u8; 256]> {
+        (self.gamma != 1.0).then_some(&self.table)
+    }
+}
+
+impl Default for ToneCurve {
+    fn default() -> Self {
+        ToneCurve::linear()
+    }
+}
 
 /// Where a colour model came from.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -50,6 +94,8 @@ pub struct LaserColourModel {
     /// for a learned colour, how uncertain `rgb` itself is.
     pub spread_rad: f64,
     pub source: ColourSource,
+    /// The tone curve `rgb` was measured through: photos are read through it.
+    pub tone: ToneCurve,
     /// `rgb` less its white part, unit length: the per-pixel projection the detector maps.
     along: [f64; 3],
     /// Unit chroma direction perpendicular to `along` and to white: the off-colour axis.
@@ -89,7 +135,8 @@ impl LaserColourModel {
     pub fn from_unit(c: &LaserColour) -> Option<LaserColourModel> {
         let rgb = [c.rgb[0] as f64, c.rgb[1] as f64, c.rgb[2] as f64];
         let spread = (c.spread_rad as f64).max(MIN_SPREAD_RAD);
-        let m = LaserColourModel::new(rgb, spread, ColourSource::Learned { dots: c.dots });
+        let tone = ToneCurve::power(c.tone_gamma as f64)?;
+        let m = LaserColourModel::new(rgb, spread, ColourSource::Learned { dots: c.dots }).through(tone);
         m.along.iter().all(|v| v.is_finite()).then_some(m)
     }
 
@@ -108,7 +155,13 @@ impl LaserColourModel {
             rgb: [self.rgb[0] as f32, self.rgb[1] as f32, self.rgb[2] as f32],
             spread_rad: self.spread_rad as f32,
             dots,
+            tone_gamma: self.tone.gamma as f32,
         }
+    }
+
+    /// This colour as measured through `tone`.
+    pub fn through(self, tone: ToneCurve) -> LaserColourModel {
+        LaserColourModel { tone, ..self }
     }
 
     fn new(rgb: [f64; 3], spread_rad: f64, source: ColourSource) -> LaserColourModel {
@@ -119,7 +172,7 @@ impl LaserColourModel {
         let rgb = if dot(chroma, chroma) < 1e-4 { [f64::NAN; 3] } else { rgb };
         let along = unit(chroma_of(rgb));
         let across = unit(cross(WHITE, along));
-        LaserColourModel { rgb, spread_rad, source, along, across }
+        LaserColourModel { rgb, spread_rad, source, tone: ToneCurve::linear(), along, across }
     }
 
     /// Per-pixel weights (R, G, B) of the detector's map: contrast along the laser's colour
@@ -480,6 +533,19 @@ mod tests {
     use super::*;
 
     #[test]
+    fn a_tone_curve_keeps_black_and_white_and_reads_the_shadows_darker() {
+        assert!(ToneCurve::linear().table().is_none(), "a linear camera's levels are read as they are");
+        assert!(
+            ToneCurve::power(0.9).is_none() && ToneCurve::power(3.1).is_none() && ToneCurve::power(f64::NAN).is_none()
+        );
+        let t = *ToneCurve::power(2.2).unwrap().table().unwrap();
+        assert_eq!((t[0], t[255]), (0, 255));
+        // sRGB-like: level 128 is 22% of white in light, level 64 is 5%.
+        assert_eq!((t[128], t[64]), (56, 12));
+        assert!(t.windows(2).all(|p| p[0] <= p[1]), "monotonic");
+    }
+
+    #[test]
     fn white_and_grey_score_nothing_and_the_laser_scores_its_contrast() {
         let m = LaserColourModel::green_prior();
         let w = m.weights();
@@ -700,7 +766,7 @@ mod tests {
             .collect();
         assert!(LaserColourModel::learn(&e).is_none());
         assert!(LaserColourModel::learn(&e[..2]).is_none());
-        let white = LaserColour { rgb: [0.577, 0.577, 0.577], spread_rad: 0.1, dots: 5 };
+        let white = LaserColour { rgb: [0.577, 0.577, 0.577], spread_rad: 0.1, dots: 5, tone_gamma: 1.0 };
         assert!(LaserColourModel::from_unit(&white).is_none());
         assert_eq!(LaserColourModel::from_unit_or_prior(Some(&white)).source, ColourSource::Prior);
     }
@@ -711,8 +777,13 @@ mod tests {
     /// (tuning target-less 1000102/17 was). The same angle on a dot ten times brighter is.
     #[test]
     fn a_faint_dots_chroma_is_no_better_known_than_its_background() {
-        let m = LaserColourModel::from_unit(&LaserColour { rgb: [0.30, 0.90, 0.30], spread_rad: 0.07, dots: 8 })
-            .expect("a green laser");
+        let m = LaserColourModel::from_unit(&LaserColour {
+            rgb: [0.30, 0.90, 0.30],
+            spread_rad: 0.07,
+            dots: 8,
+            tone_gamma: 1.0,
+        })
+        .expect("a green laser");
         let faint = scale(tilt(m.rgb, 0.13), 19.0 / m.rgb[1]);
         let score = m.score(faint, 100, 1.0);
         assert!((score.angle_rad.to_degrees() - 14.0).abs() < 1.5, "{}", score.angle_rad.to_degrees());
@@ -730,8 +801,13 @@ mod tests {
     /// 43 degrees short of the laser's.
     #[test]
     fn a_pigment_that_darkens_is_off_colour_by_its_white_part_and_a_dot_on_a_coloured_fish_is_not() {
-        let m = LaserColourModel::from_unit(&LaserColour { rgb: [0.578, 0.810, 0.101], spread_rad: 0.156, dots: 8 })
-            .expect("a green laser");
+        let m = LaserColourModel::from_unit(&LaserColour {
+            rgb: [0.578, 0.810, 0.101],
+            spread_rad: 0.156,
+            dots: 8,
+            tone_gamma: 1.0,
+        })
+        .expect("a green laser");
         let tuft = [2.5, 75.6, -37.8];
         let sigma = 0.14f64.to_radians();
         let (angle, deficit) = (m.angle_rad(tuft), m.white_deficit_rad(tuft));

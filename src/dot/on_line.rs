@@ -823,6 +823,7 @@ mod tests {
             stride: img.width() as usize * 3,
             order: ChannelOrder::Rgb,
             data: img.as_raw(),
+            tone: None,
         }
     }
 
@@ -1271,8 +1272,12 @@ mod tests {
     #[test]
     fn a_blob_far_off_the_lasers_colour_is_no_look_alike() {
         let (camera, laser) = (tg6_camera(), fsl_laser());
-        let unit =
-            fslcal_core::unit_file::LaserColour { rgb: [0.25, 0.9, 0.36], spread_rad: 4f32.to_radians(), dots: 6 };
+        let unit = fslcal_core::unit_file::LaserColour {
+            rgb: [0.25, 0.9, 0.36],
+            spread_rad: 4f32.to_radians(),
+            dots: 6,
+            tone_gamma: 1.0,
+        };
         let colour = crate::dot::colour::LaserColourModel::from_unit(&unit).expect("a green laser");
         let detector = DotDetectorParams { colour, ..DotDetectorParams::default() };
         let search = LineSearch { detector, ..LineSearch::default() };

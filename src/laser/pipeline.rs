@@ -12,7 +12,7 @@ use super::gates::{self, GateResult};
 use super::target::{locate_target, LocatedTarget, Target};
 use crate::dot::candidates::SearchRegion;
 use crate::dot::candidates::{ChannelOrder, ColourView, DotCandidate, DotDetectorParams};
-use crate::dot::colour::{LaserColourModel, MeasuredColour};
+use crate::dot::colour::{ColourSource, LaserColourModel, MeasuredColour, ToneCurve};
 use crate::dot::near_prediction;
 use crate::dot::on_line::{misfit, too_large, Refusal};
 use crate::dot::on_target::{self, detected_sigma_px, hand_candidate, Surface, HAND_DOT_SIGMA_PX};
@@ -103,7 +103,11 @@ impl PixelCrop {
         let mut data = Vec::with_capacity(width * height * 3);
         for y in y0..y1 {
             let row = y * view.stride + 3 * x0;
-            data.extend_from_slice(view.data.get(row..row + 3 * width)?);
+            let bytes = view.data.get(row..row + 3 * width)?;
+            match view.tone {
+                None => data.extend_from_slice(bytes),
+                Some(t) => data.extend(bytes.iter().map(|&b| t[b as usize])),
+            }
         }
         Some(PixelCrop { x0, y0, width, height, data })
     }
@@ -114,7 +118,9 @@ impl PixelCrop {
             height: self.height,
             stride: self.width * 3,
             order: ChannelOrder::Bgr,
+            // Kept read through the tone curve already.
             data: &self.data,
+            tone: None,
         }
     }
 
@@ -247,12 +253,17 @@ fn examine(job: &LaserJob, path: &Path, budget: &CropBudget) -> Result<PhotoResu
             // Blobs no dot could be at the target's distance are dropped before the cap, so
             // a crowd of them cannot push the dot out.
             let plane = pose.plane();
-            let found = job.target.find_dots(&photo.colour(), &region, &job.detector, 4 * CANDIDATES_KEPT);
+            let found = job.target.find_dots(
+                &photo.colour(&job.detector.colour.tone),
+                &region,
+                &job.detector,
+                4 * CANDIDATES_KEPT,
+            );
             let sized = found.into_iter().filter(|c| sized_like_a_dot(job, &plane, c));
             (sized.take(CANDIDATES_KEPT).collect(), DotSource::Detected)
         }
     };
-    let board_pixels = PixelCrop::of(&photo.colour(), &outline, budget);
+    let board_pixels = PixelCrop::of(&photo.colour(&job.detector.colour.tone), &outline, budget);
     Ok(Ok(PhotoEvidence {
         board_pixels,
         image_size: (photo.width(), photo.height()),
@@ -322,11 +333,78 @@ fn look_near(job: &LaserJob, path: &Path, evidence: &PhotoEvidence, hit: Vec3) -
         }
     }
     let photo: Photo = EncodedPhoto::read(path).ok()?.decode().ok()?;
-    near_prediction::find_near(surface, &photo.colour(), Vec2::zeros(), predicted, radius, &squares, &job.detector)
+    near_prediction::find_near(
+        surface,
+        &photo.colour(&job.detector.colour.tone),
+        Vec2::zeros(),
+        predicted,
+        radius,
+        &squares,
+        &job.detector,
+    )
 }
 
-/// Runs the whole chain. `progress` is called once per photo examined.
+/// The laser colour's spread above which a calibration read as linear is tried through
+/// the camera tone curves of [`TONE_TRIALS`]: under an in-camera curve a dot's chroma moves
+/// with the level of the surface under it, and the accepted dots' colours scatter. On the
+/// target-less sets' companion calibrations (10 photos each) read as linear, the spread
+/// was 3.9-5.4 degrees for all 24 linear units (seeds 1000396-407, 3010-3021) and 4.1-18.4
+/// for 12 units rendered through a curve of gamma 1.0-2.2 (seeds 1000408-419): above 6 for
+/// 4 of them (gamma 2.0-2.19), and one refused outright (gamma 2.21).
+const TONE_RETRY_SPREAD_RAD: f64 = 6.0 * core::f64::consts::PI / 180.0;
+
+/// Camera tone curves a calibration is tried through when the linear reading scatters
+/// ([`TONE_RETRY_SPREAD_RAD`]) or fails: the one whose dots agree best on one colour
+/// is kept. sRGB is about 2.2.
+const TONE_TRIALS: [f64; 3] = [1.4, 1.8, 2.2];
+
+/// Runs the whole chain. `progress` is called once per photo examined (in the first
+/// reading; a reading through another tone curve reports none).
+///
+/// A unit's camera tone curve is learned here: the photos are first read as linear; when
+/// that reading is refused or its dots scatter in colour, they are read again through each
+/// of [`TONE_TRIALS`] and the reading whose dots agree best on one colour is kept, its
+/// curve stored with the colour. Not with hand-given dots or a colour already known.
 pub fn calibrate(
+    job: &LaserJob,
+    photos: &[PathBuf],
+    progress: &(dyn Fn() + Sync),
+) -> Result<LaserCalibration, LaserError> {
+    let first = calibrate_through(job, photos, progress);
+    let spread = |r: &Result<LaserCalibration, LaserError>| match r {
+        Ok(c) => c.laser_colour.map(|m| m.spread_rad),
+        Err(_) => None,
+    };
+    let learns_tone = job.hand_dots.is_empty()
+        && job.detector.colour.source == ColourSource::Prior
+        && job.detector.colour.tone.table().is_none();
+    let scattered = match &first {
+        Ok(_) => spread(&first).is_some_and(|s| s > TONE_RETRY_SPREAD_RAD),
+        Err(LaserError::Fit { .. }) => true,
+        Err(_) => false,
+    };
+    if !learns_tone || !scattered {
+        return first;
+    }
+    let mut best = first;
+    for gamma in TONE_TRIALS {
+        let mut through = job.clone();
+        through.detector.colour = through.detector.colour.through(ToneCurve::power(gamma).expect("a gamma in range"));
+        let r = calibrate_through(&through, photos, &|| {});
+        let better = match (spread(&r), spread(&best)) {
+            (Some(s), Some(b)) => s < b,
+            (Some(_), None) => true,
+            _ => false,
+        };
+        if better {
+            best = r;
+        }
+    }
+    best
+}
+
+/// [`calibrate`] reading the photos through the detector's tone curve.
+fn calibrate_through(
     job: &LaserJob,
     photos: &[PathBuf],
     progress: &(dyn Fn() + Sync),
@@ -368,7 +446,7 @@ pub fn calibrate(
                 .collect();
             // The second look knows the laser's colour from the first fit's dots.
             let mut second = job.clone();
-            if let Some(colour) = learn_colour(&results, &first) {
+            if let Some(colour) = learn_colour(&results, &first, job) {
                 second.detector.colour = colour;
             }
             let found: Vec<(usize, Option<DotCandidate>)> = retry
@@ -408,7 +486,7 @@ pub fn calibrate(
     let present = fit.photos.iter().flatten().count();
     let outliers = (present - fit.used, present);
     let gates = gates::gate(job, &fit, outliers);
-    let laser_colour = learn_colour(&results, &fit);
+    let laser_colour = learn_colour(&results, &fit, job);
     Ok(LaserCalibration { fit, photos: photo_reports, gates, outliers, laser_colour })
 }
 
@@ -448,7 +526,7 @@ fn choose_jointly(job: &LaserJob, results: &mut [PhotoResult]) {
 }
 
 /// The laser's colour from the used photos' detected dots (hand-given dots have none).
-fn learn_colour(results: &[PhotoResult], fit: &LaserFit) -> Option<LaserColourModel> {
+fn learn_colour(results: &[PhotoResult], fit: &LaserFit, job: &LaserJob) -> Option<LaserColourModel> {
     let dots: Vec<MeasuredColour> = results
         .iter()
         .zip(&fit.photos)
@@ -463,7 +541,7 @@ fn learn_colour(results: &[PhotoResult], fit: &LaserFit) -> Option<LaserColourMo
             })
         })
         .collect();
-    LaserColourModel::learn(&dots)
+    LaserColourModel::learn(&dots).map(|m| m.through(job.detector.colour.tone))
 }
 
 fn report_photos(

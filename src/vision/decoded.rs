@@ -4,6 +4,7 @@
 
 use super::buffers::{self, Buffer};
 use crate::dot::candidates::{ChannelOrder, ColourView};
+use crate::dot::colour::ToneCurve;
 use crate::photo::thumbnails::{self, Kept};
 use opencv::core::{Mat, Rect, Size, CV_8UC1, CV_8UC3};
 use opencv::imgproc;
@@ -60,16 +61,24 @@ impl Photo {
         self.bgr.rows() as u32
     }
 
-    /// The colour pixels for the dot detector: a raw's linear levels, else the photo's.
-    pub fn colour(&self) -> ColourView<'_> {
+    /// The colour pixels for the dot detector: a raw's linear levels, else the photo's read
+    /// through `tone` (the camera's curve, learned by the unit's calibration).
+    pub fn colour<'a>(&'a self, tone: &'a ToneCurve) -> ColourView<'a> {
         let m: &Mat = self.linear.as_ref().unwrap_or(&self.bgr);
         let data = m.data_bytes().unwrap_or(&[]);
-        ColourView {
+        let view = ColourView {
             width: m.cols() as usize,
             height: m.rows() as usize,
             stride: m.cols() as usize * 3,
             order: ChannelOrder::Bgr,
             data,
+            tone: None,
+        };
+        // A raw's levels are linear already.
+        if self.linear.is_some() {
+            view
+        } else {
+            view.through(tone)
         }
     }
 

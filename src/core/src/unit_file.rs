@@ -19,7 +19,7 @@ use sha2::{Digest, Sha256};
 /// The first four bytes of every calibration file.
 pub const MAGIC: [u8; 4] = *b"FSLC";
 /// The newest format version this build writes and reads; it reads every older one too.
-pub const VERSION: u8 = 2;
+pub const VERSION: u8 = 3;
 /// Magic, version and the total length, in every version.
 pub const HEADER_BYTES: usize = 7;
 pub const SIGNATURE_BYTES: usize = 64;
@@ -170,7 +170,23 @@ pub struct LaserColour {
     pub spread_rad: f32,
     /// Accepted dots it was learned from.
     pub dots: u16,
+    /// The camera's tone curve the colour was measured through (version 3): a photo's 8-bit
+    /// level `v` is read as `255 (v / 255)^tone_gamma` before the dot is scored, so light the
+    /// laser adds counts alike over dark and light surfaces. 1 for a linear camera, and for
+    /// every colour a version 2 file holds.
+    pub tone_gamma: f32,
 }
+
+/// Version 2's laser colour, as released: [`LaserColour`] without its tone curve.
+#[derive(Clone, Copy, Serialize, Deserialize)]
+struct LaserColourV2 {
+    rgb: [f32; 3],
+    spread_rad: f32,
+    dots: u16,
+}
+
+/// Tone curves a calibration may state: from linear to past sRGB's (about 2.2).
+pub const TONE_GAMMA_RANGE: [f32; 2] = [1.0, 3.0];
 
 /// The laser fit's own quality figures, as `fslcal laser` reports them.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
@@ -215,8 +231,29 @@ pub struct UnitFile<'a> {
     pub laser_colour: Option<LaserColour>,
 }
 
-/// Version 2's payload, in wire order: version 1's fields, then where the calibration came
-/// from and the laser's colour, then the signer. Field order is the format: never reorder.
+/// Version 3's payload, in wire order: version 2's, its laser colour with the camera's tone
+/// curve. Field order is the format: never reorder.
+#[derive(Serialize, Deserialize)]
+struct PayloadV3<'a> {
+    unit: &'a str,
+    #[serde(borrow)]
+    camera_identity: CameraIdentity<'a>,
+    intrinsics: IntrinsicsWire,
+    laser: LaserWire,
+    made_utc_s: i64,
+    water_depth_m: Option<f32>,
+    depth_range_m: Option<[f32; 2]>,
+    method: FitMethod,
+    fit: Option<FitQuality>,
+    #[serde(borrow)]
+    target: Option<&'a str>,
+    provenance: Provenance,
+    laser_colour: Option<LaserColour>,
+    signer: [u8; 32],
+}
+
+/// Version 2's payload, in wire order, as released: version 1's fields, then where the
+/// calibration came from and the laser's colour, then the signer. Read, never written.
 #[derive(Serialize, Deserialize)]
 struct PayloadV2<'a> {
     unit: &'a str,
@@ -232,7 +269,7 @@ struct PayloadV2<'a> {
     #[serde(borrow)]
     target: Option<&'a str>,
     provenance: Provenance,
-    laser_colour: Option<LaserColour>,
+    laser_colour: Option<LaserColourV2>,
     signer: [u8; 32],
 }
 
@@ -257,9 +294,9 @@ struct PayloadV1<'a> {
 const UPPER: [(usize, usize); 10] = [(0, 0), (0, 1), (0, 2), (0, 3), (1, 1), (1, 2), (1, 3), (2, 2), (2, 3), (3, 3)];
 
 impl<'a> UnitFile<'a> {
-    fn to_wire(self, signer: [u8; 32]) -> PayloadV2<'a> {
+    fn to_wire(self, signer: [u8; 32]) -> PayloadV3<'a> {
         let c = &self.camera;
-        PayloadV2 {
+        PayloadV3 {
             unit: self.unit,
             camera_identity: self.camera_identity,
             intrinsics: IntrinsicsWire {
@@ -288,7 +325,7 @@ impl<'a> UnitFile<'a> {
         }
     }
 
-    fn from_wire(p: &PayloadV2<'a>) -> Self {
+    fn from_wire(p: &PayloadV3<'a>) -> Self {
         let i = &p.intrinsics;
         let mut cov = [[0.0; 4]; 4];
         for (&(r, c), &v) in UPPER.iter().zip(&p.laser.covariance_upper) {
@@ -360,6 +397,9 @@ impl<'a> UnitFile<'a> {
             {
                 return Err("laser colour not a unit vector with a spread");
             }
+            if !(TONE_GAMMA_RANGE[0]..=TONE_GAMMA_RANGE[1]).contains(&c.tone_gamma) {
+                return Err("tone curve gamma outside 1-3");
+            }
         }
         if (self.method == FitMethod::Imported) != (self.provenance != Provenance::Fitted) {
             return Err("method and provenance disagree on whether the calibration was imported");
@@ -419,11 +459,34 @@ fn take_payload<'a, P: Deserialize<'a>>(body: &'a [u8]) -> Result<P, FormatError
     }
 }
 
+impl<'a> PayloadV2<'a> {
+    /// Version 2 read every photo as linear.
+    fn into_v3(self) -> PayloadV3<'a> {
+        let colour =
+            |c: LaserColourV2| LaserColour { rgb: c.rgb, spread_rad: c.spread_rad, dots: c.dots, tone_gamma: 1.0 };
+        PayloadV3 {
+            unit: self.unit,
+            camera_identity: self.camera_identity,
+            intrinsics: self.intrinsics,
+            laser: self.laser,
+            made_utc_s: self.made_utc_s,
+            water_depth_m: self.water_depth_m,
+            depth_range_m: self.depth_range_m,
+            method: self.method,
+            fit: self.fit,
+            target: self.target,
+            provenance: self.provenance,
+            laser_colour: self.laser_colour.map(colour),
+            signer: self.signer,
+        }
+    }
+}
+
 impl<'a> PayloadV1<'a> {
     /// Version 1 knew one import, the lab's `.pkg`, and no laser colour.
-    fn into_v2(self) -> PayloadV2<'a> {
+    fn into_v3(self) -> PayloadV3<'a> {
         let provenance = if self.method == FitMethod::Imported { Provenance::LabPkg } else { Provenance::Fitted };
-        PayloadV2 {
+        PayloadV3 {
             unit: self.unit,
             camera_identity: self.camera_identity,
             intrinsics: self.intrinsics,
@@ -488,11 +551,12 @@ impl<'a> SignedUnitFile<'a> {
         let (signed, sig) = bytes.split_at(signed_len);
         let mut signature = [0u8; SIGNATURE_BYTES];
         signature.copy_from_slice(sig);
-        // Each released version keeps its arm; a version 1 payload becomes version 2's.
+        // Each released version keeps its arm; older payloads become version 3's.
         let body = &signed[HEADER_BYTES..];
         let payload = match version {
-            1 => take_payload::<PayloadV1<'a>>(body)?.into_v2(),
-            _ => take_payload::<PayloadV2<'a>>(body)?,
+            1 => take_payload::<PayloadV1<'a>>(body)?.into_v3(),
+            2 => take_payload::<PayloadV2<'a>>(body)?.into_v3(),
+            _ => take_payload::<PayloadV3<'a>>(body)?,
         };
         let contents = UnitFile::from_wire(&payload);
         contents.check().map_err(FormatError::Corrupt)?;
@@ -570,7 +634,8 @@ pub fn example() -> UnitFile<'static> {
         provenance: Provenance::Fitted,
         // A green dot with a little red in it, as a TG-6 renders a 532 nm laser:
         // 0.28² + 0.96² = 1, a unit vector to f32 rounding.
-        laser_colour: Some(LaserColour { rgb: [0.28, 0.96, 0.0], spread_rad: 0.0625, dots: 14 }),
+        // Read through a tone curve of gamma 2.25, near sRGB's, as a TG-6 JPEG is.
+        laser_colour: Some(LaserColour { rgb: [0.28, 0.96, 0.0], spread_rad: 0.0625, dots: 14, tone_gamma: 2.25 }),
     }
 }
 
@@ -627,6 +692,9 @@ mod tests {
         c.camera_identity.model = &long;
         c.camera_identity.serial = Some(&long);
         c.target = Some(&long);
+        assert!(matches!(c.sign(&EXAMPLE_SECRET_KEY, &mut buf), Err(FormatError::Unsignable(_))));
+        let mut c = contents();
+        c.laser_colour.as_mut().unwrap().tone_gamma = 0.5;
         assert!(matches!(c.sign(&EXAMPLE_SECRET_KEY, &mut buf), Err(FormatError::Unsignable(_))));
     }
 }
