@@ -87,7 +87,7 @@ fn each_bad_file_reaches_its_own_reason() {
     assert_eq!(lines[0], "unit   FSL-03");
     assert_eq!(lines[1], "cal 2026-06-01 176 d");
     assert_eq!(lines[2], "signer example-key");
-    assert_eq!(lines[4], format!("file v{} {} B", unit_file::VERSION, good_file().len()));
+    assert_eq!(lines[4], format!("file v{} {} B", VERSION, good_file().len()));
 }
 
 #[test]
