@@ -55,28 +55,32 @@ fn the_spec_example_decodes_to_the_example() {
     assert!(SPEC.contains(&format!("{} bytes", bytes.len())), "the spec should state the example's size");
 }
 
+/// The spec's dump of the example as format `version` wrote it (block ```hexdump-vN),
+/// decoded and verified: its contents.
+fn older_example(version: u8) -> unit_file::UnitFile<'static> {
+    let bytes: &'static [u8] = Vec::leak(dump_bytes(&format!("```hexdump-v{version}\n")));
+    assert_eq!(bytes[4], version, "the block is a version {version} file");
+    assert!(
+        SPEC.contains(&format!("{} bytes", bytes.len())),
+        "the spec should state the version {version} example's size"
+    );
+    let f = unit_file::verify(bytes, &[unit_file::public_key(&EXAMPLE_SECRET_KEY)]).unwrap();
+    assert_eq!(f.version, version);
+    f.contents
+}
+
 #[test]
 fn the_spec_version_2_example_still_decodes_and_verifies() {
-    let bytes = dump_bytes("```hexdump-v2\n");
-    assert_eq!(bytes[4], 2, "the block is a version 2 file");
-    assert!(SPEC.contains(&format!("{} bytes", bytes.len())), "the spec should state the version 2 example's size");
-    let f = unit_file::verify(&bytes, &[unit_file::public_key(&EXAMPLE_SECRET_KEY)]).unwrap();
-    assert_eq!(f.version, 2);
     // Version 2 read every photo as linear.
     let mut expected = unit_file::example();
     expected.laser_colour.as_mut().expect("the example has a colour").tone_gamma = 1.0;
-    assert_eq!(f.contents, expected);
+    assert_eq!(older_example(2), expected);
 }
 
 #[test]
 fn the_spec_version_1_example_still_decodes_and_verifies() {
-    let bytes = dump_bytes("```hexdump-v1\n");
-    assert_eq!(bytes[4], 1, "the block is a version 1 file");
-    assert!(SPEC.contains(&format!("{} bytes", bytes.len())), "the spec should state the version 1 example's size");
-    let f = unit_file::verify(&bytes, &[unit_file::public_key(&EXAMPLE_SECRET_KEY)]).unwrap();
-    assert_eq!(f.version, 1);
     // Version 1 knew neither field: a fitted calibration with no learned colour.
     let expected =
         unit_file::UnitFile { provenance: unit_file::Provenance::Fitted, laser_colour: None, ..unit_file::example() };
-    assert_eq!(f.contents, expected);
+    assert_eq!(older_example(1), expected);
 }

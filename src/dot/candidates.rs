@@ -1902,8 +1902,7 @@ mod tests {
             let lit = spot(x, y, centre, 70.0, 2.5);
             core::array::from_fn(|i| 255.0 * ((surface[i] + laser[i] * lit) / 255.0f64).min(1.0).powf(1.0 / gamma))
         });
-        let unit =
-            fslcal_core::unit_file::LaserColour { rgb: [0.25, 0.9, 0.35], spread_rad: 0.06, dots: 8, tone_gamma: 1.0 };
+        let unit = crate::dot::colour::linear_unit_colour([0.25, 0.9, 0.35], 0.06, 8);
         let angles = |tone: ToneCurve| -> Vec<f64> {
             let params = DotDetectorParams {
                 colour: LaserColourModel::from_unit(&unit).unwrap().through(tone),
@@ -1945,8 +1944,7 @@ mod tests {
 
     /// A unit's learned colour for a green laser with a blue second channel, from 7 dots.
     fn green_laser_with_blue() -> LaserColourModel {
-        let unit =
-            fslcal_core::unit_file::LaserColour { rgb: [0.31, 0.88, 0.36], spread_rad: 0.08, dots: 7, tone_gamma: 1.0 };
+        let unit = crate::dot::colour::linear_unit_colour([0.31, 0.88, 0.36], 0.08, 7);
         LaserColourModel::from_unit(&unit).expect("a green laser with blue")
     }
 
@@ -2091,12 +2089,7 @@ mod tests {
             let dot = c.iter().find(|c| (c.pixel - truth).norm() < 8.0).map(|c| c.pixel);
             dot.unwrap_or_else(|| panic!("no candidate near the dot: {c:?}"))
         };
-        let unit = fslcal_core::unit_file::LaserColour {
-            rgb: [0.51, 0.85, 0.085],
-            spread_rad: 0.06,
-            dots: 8,
-            tone_gamma: 1.0,
-        };
+        let unit = crate::dot::colour::linear_unit_colour([0.51, 0.85, 0.085], 0.06, 8);
         let learned = centre(LaserColourModel::from_unit(&unit).expect("a yellow-green laser"));
         let prior = centre(LaserColourModel::green_prior());
         assert!((learned - truth).norm() < 0.5, "learned colour: {learned:?}");
@@ -2742,12 +2735,7 @@ mod tests {
                 [88.0 + 0.12 * dot + noise, 262.0 + dot + noise, 258.0 + 0.5 * dot + noise]
             })
         };
-        let unit = fslcal_core::unit_file::LaserColour {
-            rgb: [0.108, 0.893, 0.438],
-            spread_rad: 0.06,
-            dots: 8,
-            tone_gamma: 1.0,
-        };
+        let unit = crate::dot::colour::linear_unit_colour([0.108, 0.893, 0.438], 0.06, 8);
         let p = DotDetectorParams {
             colour: LaserColourModel::from_unit(&unit).expect("a green laser"),
             ..Default::default()
@@ -2784,8 +2772,7 @@ mod tests {
                 [18.0 + 0.45 * dot + noise, 120.0 + dot + noise, 125.0 + 0.2 * dot + noise]
             }
         });
-        let unit =
-            fslcal_core::unit_file::LaserColour { rgb: [0.49, 0.86, 0.13], spread_rad: 0.06, dots: 8, tone_gamma: 1.0 };
+        let unit = crate::dot::colour::linear_unit_colour([0.49, 0.86, 0.13], 0.06, 8);
         let p = DotDetectorParams {
             colour: LaserColourModel::from_unit(&unit).expect("a green laser"),
             ..Default::default()

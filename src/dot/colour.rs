@@ -528,6 +528,12 @@ fn unit(a: [f64; 3]) -> [f64; 3] {
     scale(a, 1.0 / dot(a, a).sqrt())
 }
 
+/// A unit's learned colour as a linear camera's calibration stores it, for tests.
+#[cfg(test)]
+pub(crate) fn linear_unit_colour(rgb: [f32; 3], spread_rad: f32, dots: u16) -> LaserColour {
+    LaserColour { rgb, spread_rad, dots, tone_gamma: 1.0 }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -766,7 +772,7 @@ mod tests {
             .collect();
         assert!(LaserColourModel::learn(&e).is_none());
         assert!(LaserColourModel::learn(&e[..2]).is_none());
-        let white = LaserColour { rgb: [0.577, 0.577, 0.577], spread_rad: 0.1, dots: 5, tone_gamma: 1.0 };
+        let white = linear_unit_colour([0.577, 0.577, 0.577], 0.1, 5);
         assert!(LaserColourModel::from_unit(&white).is_none());
         assert_eq!(LaserColourModel::from_unit_or_prior(Some(&white)).source, ColourSource::Prior);
     }
@@ -777,13 +783,7 @@ mod tests {
     /// (tuning target-less 1000102/17 was). The same angle on a dot ten times brighter is.
     #[test]
     fn a_faint_dots_chroma_is_no_better_known_than_its_background() {
-        let m = LaserColourModel::from_unit(&LaserColour {
-            rgb: [0.30, 0.90, 0.30],
-            spread_rad: 0.07,
-            dots: 8,
-            tone_gamma: 1.0,
-        })
-        .expect("a green laser");
+        let m = LaserColourModel::from_unit(&linear_unit_colour([0.30, 0.90, 0.30], 0.07, 8)).expect("a green laser");
         let faint = scale(tilt(m.rgb, 0.13), 19.0 / m.rgb[1]);
         let score = m.score(faint, 100, 1.0);
         assert!((score.angle_rad.to_degrees() - 14.0).abs() < 1.5, "{}", score.angle_rad.to_degrees());
@@ -801,13 +801,8 @@ mod tests {
     /// 43 degrees short of the laser's.
     #[test]
     fn a_pigment_that_darkens_is_off_colour_by_its_white_part_and_a_dot_on_a_coloured_fish_is_not() {
-        let m = LaserColourModel::from_unit(&LaserColour {
-            rgb: [0.578, 0.810, 0.101],
-            spread_rad: 0.156,
-            dots: 8,
-            tone_gamma: 1.0,
-        })
-        .expect("a green laser");
+        let m =
+            LaserColourModel::from_unit(&linear_unit_colour([0.578, 0.810, 0.101], 0.156, 8)).expect("a green laser");
         let tuft = [2.5, 75.6, -37.8];
         let sigma = 0.14f64.to_radians();
         let (angle, deficit) = (m.angle_rad(tuft), m.white_deficit_rad(tuft));

@@ -1272,12 +1272,7 @@ mod tests {
     #[test]
     fn a_blob_far_off_the_lasers_colour_is_no_look_alike() {
         let (camera, laser) = (tg6_camera(), fsl_laser());
-        let unit = fslcal_core::unit_file::LaserColour {
-            rgb: [0.25, 0.9, 0.36],
-            spread_rad: 4f32.to_radians(),
-            dots: 6,
-            tone_gamma: 1.0,
-        };
+        let unit = crate::dot::colour::linear_unit_colour([0.25, 0.9, 0.36], 4f32.to_radians(), 6);
         let colour = crate::dot::colour::LaserColourModel::from_unit(&unit).expect("a green laser");
         let detector = DotDetectorParams { colour, ..DotDetectorParams::default() };
         let search = LineSearch { detector, ..LineSearch::default() };

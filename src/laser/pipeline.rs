@@ -446,7 +446,7 @@ fn calibrate_through(
                 .collect();
             // The second look knows the laser's colour from the first fit's dots.
             let mut second = job.clone();
-            if let Some(colour) = learn_colour(&results, &first, job) {
+            if let Some(colour) = learn_colour(&results, &first, job.detector.colour.tone) {
                 second.detector.colour = colour;
             }
             let found: Vec<(usize, Option<DotCandidate>)> = retry
@@ -486,7 +486,7 @@ fn calibrate_through(
     let present = fit.photos.iter().flatten().count();
     let outliers = (present - fit.used, present);
     let gates = gates::gate(job, &fit, outliers);
-    let laser_colour = learn_colour(&results, &fit, job);
+    let laser_colour = learn_colour(&results, &fit, job.detector.colour.tone);
     Ok(LaserCalibration { fit, photos: photo_reports, gates, outliers, laser_colour })
 }
 
@@ -525,8 +525,9 @@ fn choose_jointly(job: &LaserJob, results: &mut [PhotoResult]) {
     }
 }
 
-/// The laser's colour from the used photos' detected dots (hand-given dots have none).
-fn learn_colour(results: &[PhotoResult], fit: &LaserFit, job: &LaserJob) -> Option<LaserColourModel> {
+/// The laser's colour from the used photos' detected dots (hand-given dots have none), as
+/// measured through `tone`.
+fn learn_colour(results: &[PhotoResult], fit: &LaserFit, tone: ToneCurve) -> Option<LaserColourModel> {
     let dots: Vec<MeasuredColour> = results
         .iter()
         .zip(&fit.photos)
@@ -541,7 +542,7 @@ fn learn_colour(results: &[PhotoResult], fit: &LaserFit, job: &LaserJob) -> Opti
             })
         })
         .collect();
-    LaserColourModel::learn(&dots).map(|m| m.through(job.detector.colour.tone))
+    LaserColourModel::learn(&dots).map(|m| m.through(tone))
 }
 
 fn report_photos(
