@@ -238,13 +238,56 @@ fn board_squares(job: &LaserJob, corners: &[Vec2]) -> Vec<[Vec2; 4]> {
     }
 }
 
+/// Where a reading located a photo's target: a reading through another tone curve reuses
+/// it, since only the dot search depends on the curve (the board search, OpenCV's, is by
+/// far the slower part).
+#[derive(Clone, Debug)]
+struct Placement {
+    pose: TargetPose,
+    outline_px: Vec<Vec2>,
+    corners_px: Vec<Vec2>,
+    found_at_factor: u32,
+    inliers: Option<usize>,
+}
+
+impl PhotoEvidence {
+    fn placement(&self) -> Placement {
+        Placement {
+            pose: self.pose.clone(),
+            outline_px: self.board_outline_px.clone(),
+            corners_px: self.corners_px.clone(),
+            found_at_factor: self.found_at_factor,
+            inliers: self.target_inliers,
+        }
+    }
+}
+
 /// [`examine_photo`], keeping the board's pixels while `budget` allows.
 fn examine(job: &LaserJob, path: &Path, budget: &CropBudget) -> Result<PhotoResult, LaserError> {
     let located = match locate_target(&job.target, &job.camera, path)? {
         Ok(l) => l,
         Err(reason) => return Ok(Err(reason)),
     };
-    let LocatedTarget { pose, outline_px: outline, photo, found_at_factor, inliers, corners_px: corners } = located;
+    let LocatedTarget { pose, outline_px, photo, found_at_factor, inliers, corners_px } = located;
+    let placement = Placement { pose, outline_px, corners_px, found_at_factor, inliers };
+    Ok(Ok(search_target(job, path, &photo, placement, budget)))
+}
+
+/// A photo read again through `job`'s tone curve, its target where `before` placed it.
+fn reexamine(job: &LaserJob, path: &Path, before: &PhotoResult, budget: &CropBudget) -> PhotoResult {
+    let placement = before.as_ref().map_err(Clone::clone)?.placement();
+    let photo = EncodedPhoto::read(path).and_then(|e| e.decode()).map_err(|e| {
+        let file = path.display().to_string();
+        Reason::from(TargetMiss::Unreadable { detail: super::target::strip_path(&e.to_string(), &file) })
+    })?;
+    Ok(search_target(job, path, &photo, placement, budget))
+}
+
+/// The dot candidates on a located target (or the hand-given dot), read through the job's
+/// tone curve.
+fn search_target(job: &LaserJob, path: &Path, photo: &Photo, at: Placement, budget: &CropBudget) -> PhotoEvidence {
+    let Placement { pose, outline_px: outline, corners_px: corners, found_at_factor, inliers } = at;
+    let colour = photo.colour(&job.detector.colour.tone);
     let (candidates, dot_source) = match job.hand_dots.get(path) {
         Some(px) => (vec![hand_candidate(px)], DotSource::Hand),
         None => {
@@ -253,18 +296,13 @@ fn examine(job: &LaserJob, path: &Path, budget: &CropBudget) -> Result<PhotoResu
             // Blobs no dot could be at the target's distance are dropped before the cap, so
             // a crowd of them cannot push the dot out.
             let plane = pose.plane();
-            let found = job.target.find_dots(
-                &photo.colour(&job.detector.colour.tone),
-                &region,
-                &job.detector,
-                4 * CANDIDATES_KEPT,
-            );
+            let found = job.target.find_dots(&colour, &region, &job.detector, 4 * CANDIDATES_KEPT);
             let sized = found.into_iter().filter(|c| sized_like_a_dot(job, &plane, c));
             (sized.take(CANDIDATES_KEPT).collect(), DotSource::Detected)
         }
     };
-    let board_pixels = PixelCrop::of(&photo.colour(&job.detector.colour.tone), &outline, budget);
-    Ok(Ok(PhotoEvidence {
+    let board_pixels = PixelCrop::of(&colour, &outline, budget);
+    PhotoEvidence {
         board_pixels,
         image_size: (photo.width(), photo.height()),
         pose,
@@ -276,7 +314,7 @@ fn examine(job: &LaserJob, path: &Path, budget: &CropBudget) -> Result<PhotoResu
         dot_source,
         found_at_factor,
         target_inliers: inliers,
-    }))
+    }
 }
 
 fn observation(e: &PhotoEvidence) -> Option<DotObservation> {
@@ -364,33 +402,51 @@ const TONE_TRIALS: [f64; 3] = [1.4, 1.8, 2.2];
 /// A unit's camera tone curve is learned here: the photos are first read as linear; when
 /// that reading is refused or its dots scatter in colour, they are read again through each
 /// of [`TONE_TRIALS`] and the reading whose dots agree best on one colour is kept, its
-/// curve stored with the colour. Not with hand-given dots or a colour already known.
+/// curve stored with the colour. Not with hand-given dots or a colour already known. A
+/// reading again decodes each photo and searches its target for dots where the first
+/// reading located it; it does not search for the target again.
 pub fn calibrate(
     job: &LaserJob,
     photos: &[PathBuf],
     progress: &(dyn Fn() + Sync),
 ) -> Result<LaserCalibration, LaserError> {
-    let first = calibrate_through(job, photos, progress);
+    vision::use_single_threaded_opencv();
+    let budget = CropBudget::new();
+    let read: Vec<PhotoResult> = photos
+        .par_iter()
+        .map(|p| {
+            let r = examine(job, p, &budget);
+            progress();
+            r
+        })
+        .collect::<Result<_, _>>()?;
+    let learns_tone = job.hand_dots.is_empty()
+        && job.detector.colour.source == ColourSource::Prior
+        && job.detector.colour.tone.table().is_none();
+    if !learns_tone {
+        return calibrate_from(job, photos, read);
+    }
+    let first = calibrate_from(job, photos, read.clone());
     let spread = |r: &Result<LaserCalibration, LaserError>| match r {
         Ok(c) => c.laser_colour.map(|m| m.spread_rad),
         Err(_) => None,
     };
-    let learns_tone = job.hand_dots.is_empty()
-        && job.detector.colour.source == ColourSource::Prior
-        && job.detector.colour.tone.table().is_none();
     let scattered = match &first {
         Ok(_) => spread(&first).is_some_and(|s| s > TONE_RETRY_SPREAD_RAD),
         Err(LaserError::Fit { .. }) => true,
         Err(_) => false,
     };
-    if !learns_tone || !scattered {
+    if !scattered {
         return first;
     }
     let mut best = first;
     for gamma in TONE_TRIALS {
         let mut through = job.clone();
         through.detector.colour = through.detector.colour.through(ToneCurve::power(gamma).expect("a gamma in range"));
-        let r = calibrate_through(&through, photos, &|| {});
+        let budget = CropBudget::new();
+        let again: Vec<PhotoResult> =
+            photos.par_iter().zip(&read).map(|(p, before)| reexamine(&through, p, before, &budget)).collect();
+        let r = calibrate_from(&through, photos, again);
         let better = match (spread(&r), spread(&best)) {
             (Some(s), Some(b)) => s < b,
             (Some(_), None) => true,
@@ -403,23 +459,13 @@ pub fn calibrate(
     best
 }
 
-/// [`calibrate`] reading the photos through the detector's tone curve.
-fn calibrate_through(
+/// [`calibrate`] from the photos as read through the job's tone curve: the choice of each
+/// photo's dot over all photos, the fit, a second look near the fitted line, the gates.
+fn calibrate_from(
     job: &LaserJob,
     photos: &[PathBuf],
-    progress: &(dyn Fn() + Sync),
+    mut results: Vec<PhotoResult>,
 ) -> Result<LaserCalibration, LaserError> {
-    vision::use_single_threaded_opencv();
-    let budget = CropBudget::new();
-    let mut results: Vec<PhotoResult> = photos
-        .par_iter()
-        .map(|p| {
-            let r = examine(job, p, &budget);
-            progress();
-            r
-        })
-        .collect::<Result<_, _>>()?;
-
     choose_jointly(job, &mut results);
     let observations = |results: &[PhotoResult]| -> Vec<Option<DotObservation>> {
         results.iter().map(|r| r.as_ref().ok().and_then(observation)).collect()
