@@ -221,7 +221,10 @@ fn tuning_boards(dir: &Path, photos: &[(u64, usize)]) -> Vec<(PathBuf, Vec<[f64;
     photos
         .par_iter()
         .map(|&(seed, i)| {
-            let photo = VarietySet::plan(Kind::Calibration, seed, None, 4000).unwrap().render(i);
+            // Chosen, before the renderer drew a tone curve, for how their boards look in linear
+            // levels (as a raw developed flat): through a curve some are found sooner.
+            let set = VarietySet::plan(Kind::Calibration, seed, None, 4000).unwrap().with_tone_gamma(1.0);
+            let photo = set.render(i);
             let Some(TargetTruth::Board { corners_px, .. }) = &photo.truth.target else {
                 panic!("seed {seed} photo {i} has no board");
             };

@@ -50,6 +50,7 @@ pub(crate) fn base_plan(unit: &Unit, seed: u64, rng: &mut SplitMix) -> PhotoPlan
         water,
         light,
         effects,
+        tone_gamma: unit.tone_gamma,
         objects: Vec::new(),
         extras: Extras::default(),
     }

@@ -136,6 +136,8 @@ pub(crate) struct PhotoPlan {
     pub water: WaterLook,
     pub light: LightLook,
     pub effects: CameraEffects,
+    /// The unit's tone curve (`Unit::tone_gamma`).
+    pub tone_gamma: f64,
     pub objects: Vec<Object>,
     pub extras: Extras,
 }
@@ -171,7 +173,7 @@ pub(crate) fn render(plan: &PhotoPlan) -> Rendered {
     impostors.extend(super::impostors::add_extras(plan, dot.as_ref().ok(), &mut img, &mut rng));
     blur(&mut img, w, h, plan.water.blur_sigma_px);
     motion_blur(&mut img, w, h, plan.effects.motion_blur_px, plan.effects.motion_blur_angle_deg.to_radians());
-    let image = quantise(&img, w, h, &plan.effects, plan.seed);
+    let image = quantise(&img, w, h, &plan.effects, plan.tone_gamma, plan.seed);
     if let Ok(d) = dot.as_mut() {
         let (x, y) = (d.pixel[0].round().clamp(0.0, w as f64 - 1.0), d.pixel[1].round().clamp(0.0, h as f64 - 1.0));
         d.saturated = image.get_pixel(x as u32, y as u32).0.iter().all(|&c| c >= 250);
@@ -380,11 +382,23 @@ fn motion_blur(img: &mut Vec<[f32; 3]>, w: usize, h: usize, length_px: f64, angl
     *img = out;
 }
 
-/// Read and shot noise, then 8-bit quantisation; one generator per row keeps it
-/// independent of the thread count. The noise is a sum of four uniforms scaled to unit
-/// variance (a normal to within what 8-bit levels show, at a fraction of Box-Muller's cost).
-fn quantise(img: &[[f32; 3]], w: usize, h: usize, effects: &CameraEffects, seed: u64) -> RgbImage {
+/// Read and shot noise on the sensor's linear levels, then the camera's tone curve, then
+/// 8-bit quantisation; one generator per row keeps it independent of the thread count. The
+/// noise is a sum of four uniforms scaled to unit variance (a normal to within what 8-bit
+/// levels show, at a fraction of Box-Muller's cost). Noise before the curve, as in a camera:
+/// the curve lifts the shadows' noise with their signal, so a dot's signal to noise does not
+/// change with the curve, only its levels and apparent colour do.
+fn quantise(img: &[[f32; 3]], w: usize, h: usize, effects: &CameraEffects, tone_gamma: f64, seed: u64) -> RgbImage {
     let (read2, gain) = (effects.noise_read_levels.powi(2), effects.noise_shot_gain as f32);
+    let inverse_gamma = (1.0 / tone_gamma) as f32;
+    let tone = |linear: f32| -> f32 {
+        let c = linear.clamp(0.0, 255.0);
+        if inverse_gamma == 1.0 {
+            c
+        } else {
+            255.0 * (c / 255.0).powf(inverse_gamma)
+        }
+    };
     let mut bytes = vec![0u8; w * h * 3];
     bytes.par_chunks_mut(w * 3).zip(img.par_chunks(w)).enumerate().for_each(|(y, (out, row))| {
         let mut g = SplitMix::derive(seed ^ 0x004E_015E, y as u64);
@@ -394,7 +408,7 @@ fn quantise(img: &[[f32; 3]], w: usize, h: usize, effects: &CameraEffects, seed:
             // Four uniforms on [0, 1): mean 2, variance 1/3.
             let normal = (sum as f32 / 65536.0 - 2.0) * 1.732_050_8;
             let sigma = (read2 as f32 + gain * c.clamp(0.0, 255.0)).sqrt();
-            *o = (c + sigma * normal).round().clamp(0.0, 255.0) as u8;
+            *o = tone(c + sigma * normal).round() as u8;
         }
     });
     RgbImage::from_raw(w as u32, h as u32, bytes).expect("buffer matches the image size")

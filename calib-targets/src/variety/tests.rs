@@ -36,6 +36,9 @@ fn the_dot_is_rendered_where_the_truth_says() {
             // smears the dot into clipped neighbours).
             plan.extras.reflection = false;
             plan.effects.motion_blur_px = 0.0;
+            // The difference of two photos is the laser's light only in linear levels: through
+            // a tone curve, a dot on a sloping background weighs its brighter side less.
+            plan.tone_gamma = 1.0;
             let on = render(&plan);
             let Ok(dot) = &on.dot else { continue };
             // Clipped or unresolved dots have no clean centroid; the truth's own formula is
@@ -209,4 +212,36 @@ fn a_written_set_is_what_fslcal_reads() {
     assert_eq!(truth.index, 1);
     assert_eq!(image::image_dimensions(&photos[1]).unwrap(), (400, 300));
     let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn the_tone_curve_is_the_units_and_maps_linear_levels_by_its_power() {
+    let gammas: Vec<f64> = (0..200).map(|seed| super::unit::draw_unit(seed, SMALL).tone_gamma).collect();
+    let (lo, hi) = super::unit::TONE_GAMMA_RANGE;
+    assert!(gammas.iter().all(|g| (lo..=hi).contains(g)), "a gamma outside {lo}-{hi}");
+    assert!(gammas.iter().filter(|&&g| g < 1.3).count() >= 30 && gammas.iter().filter(|&&g| g > 2.1).count() >= 30);
+    // The curve has its own stream: the camera and laser are what they were without it.
+    let unit = super::unit::draw_unit(5, SMALL);
+    assert_eq!(unit.camera, super::unit::draw_camera(&mut crate::random::SplitMix::derive(5, 0x0417), SMALL));
+
+    let set = VarietySet::plan(Kind::Targetless, 4, Some(1), SMALL).unwrap();
+    let mut plan = set.plans[0].clone();
+    assert_eq!(plan.tone_gamma, set.unit.tone_gamma);
+    plan.tone_gamma = 1.0;
+    let linear = render(&plan).image;
+    plan.tone_gamma = 2.2;
+    let toned = render(&plan).image;
+    // Same noise before the curve: each toned level is the curve of the linear one, to
+    // within the two roundings (half a level, times the curve's slope, plus half a level).
+    let mut compared = 0;
+    for (l, t) in linear.as_raw().iter().zip(toned.as_raw()) {
+        if *l < 20 || *l > 250 {
+            continue;
+        }
+        let expected = 255.0 * (*l as f64 / 255.0).powf(1.0 / 2.2);
+        let slope = expected / (2.2 * *l as f64);
+        assert!((*t as f64 - expected).abs() <= 0.5 * slope + 0.5 + 1e-9, "linear {l}: toned {t}, curve {expected:.2}");
+        compared += 1;
+    }
+    assert!(compared > linear.as_raw().len() / 4, "only {compared} levels compared");
 }

@@ -12,7 +12,18 @@ pub struct Unit {
     pub camera: CameraModel,
     pub laser: LaserLine,
     pub laser_look: LaserLook,
+    /// The camera's tone curve: an in-camera JPEG's level is `255 (linear / 255)^(1 /
+    /// tone_gamma)` (1: linear, as a raw developed flat; sRGB is close to 2.2).
+    #[serde(default = "linear_tone")]
+    pub tone_gamma: f64,
 }
+
+fn linear_tone() -> f64 {
+    1.0
+}
+
+/// Tone curves drawn, gamma: from a flat (linear) development to a contrasty in-camera JPEG.
+pub const TONE_GAMMA_RANGE: (f64, f64) = (1.0, 2.4);
 
 /// A photo `width_px` wide (4:3) from a TG-6 behind a corrective port, intrinsics varied
 /// as between bodies and ports: focal length ±3%, principal point ±25 px, barrel distortion
@@ -62,7 +73,11 @@ pub(crate) fn draw_laser(rng: &mut SplitMix) -> LaserLine {
 
 pub(crate) fn draw_unit(seed: u64, width_px: u32) -> Unit {
     let mut rng = SplitMix::derive(seed, 0x0417);
-    Unit { camera: draw_camera(&mut rng, width_px), laser: draw_laser(&mut rng), laser_look: LaserLook::draw(&mut rng) }
+    let (camera, laser, laser_look) =
+        (draw_camera(&mut rng, width_px), draw_laser(&mut rng), LaserLook::draw(&mut rng));
+    // Its own stream, so that adding the curve left every other draw of a seed as it was.
+    let tone_gamma = SplitMix::derive(seed, 0x70_4E).range(TONE_GAMMA_RANGE.0, TONE_GAMMA_RANGE.1);
+    Unit { camera, laser, laser_look, tone_gamma }
 }
 
 /// The unit's truth as a calibration file fslcal reads with `--cal`: the JSON `fslcal laser
