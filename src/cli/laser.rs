@@ -19,7 +19,9 @@ use crate::dot::candidates::DotDetectorParams;
 use crate::laser::fit::{Gates, Method};
 use crate::laser::gates::GateResult;
 use crate::laser::lab_equivalent::{lab_equivalent, LabEquivalent};
-use crate::laser::pipeline::{calibrate, HandDots, LaserCalibration, LaserError, LaserJob, PhotoReport, PhotoStatus};
+use crate::laser::pipeline::{
+    calibrate, HandDots, LaserCalibration, LaserError, LaserJob, PhotoReport, PhotoStatus, ToneRetry,
+};
 use crate::laser::target::{Target, TargetArg};
 use crate::photo::dot_labels::{self, DotsFile, DotsFormat};
 use crate::photo::frame::{Frame, FramePlace, ImageGeometry};
@@ -660,11 +662,17 @@ fn summary(args: &LaserArgs, job: &LaserJob, cal: &LaserCalibration) -> String {
             c.rgb[2],
             c.spread_rad.to_degrees(),
             c.to_unit().dots,
-            match c.tone.table() {
-                None => String::new(),
-                Some(_) => format!(
-                    "; photos read through a camera tone curve of gamma {:.1} (read as linear, the dots' colours scattered)",
-                    c.tone.gamma()
+            match (c.tone.table(), cal.tone_retry) {
+                (None, _) => String::new(),
+                (Some(_), retry) => format!(
+                    "; photos read through a camera tone curve of gamma {:.1}{}",
+                    c.tone.gamma(),
+                    match retry {
+                        Some(ToneRetry::LinearRefused) => " (read as linear, the fit was refused)".to_string(),
+                        Some(ToneRetry::LinearScattered { spread_rad }) =>
+                            format!(" (read as linear, the dots' colours spread {:.1} deg)", spread_rad.to_degrees()),
+                        None => " (the curve the run was given)".to_string(),
+                    }
                 ),
             }
         );

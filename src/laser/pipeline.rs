@@ -142,6 +142,18 @@ pub struct LaserCalibration {
     pub outliers: (usize, usize),
     /// The laser's colour learned from the used, detected dots (`None` below three).
     pub laser_colour: Option<LaserColourModel>,
+    /// Why the photos were read through another tone curve than the job's, when they were
+    /// and that reading was kept.
+    pub tone_retry: Option<ToneRetry>,
+}
+
+/// Why a calibration read as linear was read again through other camera tone curves.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum ToneRetry {
+    /// The fit of the linear reading was refused.
+    LinearRefused,
+    /// The linear reading's dots spread this much in colour (over [`TONE_RETRY_SPREAD_RAD`]).
+    LinearScattered { spread_rad: f64 },
 }
 
 impl LaserCalibration {
@@ -431,14 +443,16 @@ pub fn calibrate(
         Ok(c) => c.laser_colour.map(|m| m.spread_rad),
         Err(_) => None,
     };
-    let scattered = match &first {
-        Ok(_) => spread(&first).is_some_and(|s| s > TONE_RETRY_SPREAD_RAD),
-        Err(LaserError::Fit { .. }) => true,
-        Err(_) => false,
+    let retry = match &first {
+        Ok(_) => spread(&first)
+            .filter(|&s| s > TONE_RETRY_SPREAD_RAD)
+            .map(|spread_rad| ToneRetry::LinearScattered { spread_rad }),
+        Err(LaserError::Fit { .. }) => Some(ToneRetry::LinearRefused),
+        Err(_) => None,
     };
-    if !scattered {
+    let Some(retry) = retry else {
         return first;
-    }
+    };
     let mut best = first;
     for gamma in TONE_TRIALS {
         let mut through = job.clone();
@@ -453,7 +467,7 @@ pub fn calibrate(
             _ => false,
         };
         if better {
-            best = r;
+            best = r.map(|c| LaserCalibration { tone_retry: Some(retry), ..c });
         }
     }
     best
@@ -533,7 +547,7 @@ fn calibrate_from(
     let outliers = (present - fit.used, present);
     let gates = gates::gate(job, &fit, outliers);
     let laser_colour = learn_colour(&results, &fit, job.detector.colour.tone);
-    Ok(LaserCalibration { fit, photos: photo_reports, gates, outliers, laser_colour })
+    Ok(LaserCalibration { fit, photos: photo_reports, gates, outliers, laser_colour, tone_retry: None })
 }
 
 /// Each photo's dot chosen jointly over photos ([`consensus::choose`]): the fit sees the
