@@ -216,13 +216,13 @@ fn a_written_set_is_what_fslcal_reads() {
 
 #[test]
 fn the_tone_curve_is_the_units_and_maps_linear_levels_by_its_power() {
-    let gammas: Vec<f64> = (0..200).map(|seed| super::unit::draw_unit(seed, SMALL).tone_gamma).collect();
-    let (lo, hi) = super::unit::TONE_GAMMA_RANGE;
+    let gammas: Vec<f64> = (0..200).map(|seed| unit::draw_unit(seed, SMALL).tone_gamma).collect();
+    let (lo, hi) = unit::TONE_GAMMA_RANGE;
     assert!(gammas.iter().all(|g| (lo..=hi).contains(g)), "a gamma outside {lo}-{hi}");
     assert!(gammas.iter().filter(|&&g| g < 1.3).count() >= 30 && gammas.iter().filter(|&&g| g > 2.1).count() >= 30);
     // The curve has its own stream: the camera and laser are what they were without it.
-    let unit = super::unit::draw_unit(5, SMALL);
-    assert_eq!(unit.camera, super::unit::draw_camera(&mut crate::random::SplitMix::derive(5, 0x0417), SMALL));
+    let unit = unit::draw_unit(5, SMALL);
+    assert_eq!(unit.camera, unit::draw_camera(&mut SplitMix::derive(5, 0x0417), SMALL));
 
     let set = VarietySet::plan(Kind::Targetless, 4, Some(1), SMALL).unwrap();
     let mut plan = set.plans[0].clone();
