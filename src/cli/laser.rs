@@ -11,7 +11,7 @@ use super::signing::{self, SigningArgs};
 use crate::atomic_file::write_atomically;
 use crate::documents::laser::{
     DotsFileJson, DotsFrameJson, LabEquivalentJson, LaserColourJson, LaserDocument, LaserLineJson, SkippedTaskJson,
-    COVARIANCE_PARAMETERS,
+    ToneRetryJson, COVARIANCE_PARAMETERS,
 };
 use crate::documents::refused::RefusedDocument;
 use crate::documents::{self, CameraJson, SCHEMA_VERSION};
@@ -454,6 +454,10 @@ fn document(args: &LaserArgs, job: &LaserJob, cal: &LaserCalibration, identity: 
             spread_rad: c.spread_rad,
             dots: c.to_unit().dots,
             tone_gamma: c.tone.gamma(),
+            tone_retry: cal.tone_retry.map(|r| match r {
+                ToneRetry::LinearRefused => ToneRetryJson::LinearRefused,
+                ToneRetry::LinearScattered { spread_rad } => ToneRetryJson::LinearScattered { spread_rad },
+            }),
         }),
         unit: None,
         dots_file: None,

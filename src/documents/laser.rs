@@ -45,6 +45,20 @@ pub struct LaserColourJson {
     /// in results written before it was learned.
     #[serde(default = "linear_tone")]
     pub tone_gamma: f64,
+    /// Why the photos were read through `tone_gamma` rather than as linear, when `fslcal
+    /// laser` learned it (absent when read as linear, and in older results).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub tone_retry: Option<ToneRetryJson>,
+}
+
+/// Why a calibration read as linear was read again through camera tone curves.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case", tag = "why")]
+pub enum ToneRetryJson {
+    /// The linear reading's fit was refused.
+    LinearRefused,
+    /// The linear reading's dots spread this much in colour, radians.
+    LinearScattered { spread_rad: f64 },
 }
 
 fn linear_tone() -> f64 {
@@ -237,5 +251,25 @@ mod tests {
         assert!(doc.gates.is_empty() && doc.photos.is_empty() && doc.method.is_none());
         assert_eq!(doc.laser.origin_m, [-0.04, -0.105, 0.0]);
         assert_eq!(doc.outliers, Some(XOfN(0, 15)));
+    }
+
+    #[test]
+    fn why_a_tone_curve_was_read_is_tagged_and_absent_when_read_as_linear() {
+        let colour = |tone_retry| LaserColourJson {
+            rgb: [0.6, 0.8, 0.0],
+            spread_rad: 0.07,
+            dots: 7,
+            tone_gamma: 1.8,
+            tone_retry,
+        };
+        let scattered =
+            serde_json::to_value(colour(Some(ToneRetryJson::LinearScattered { spread_rad: 0.12 }))).unwrap();
+        assert_eq!(scattered["tone_retry"], serde_json::json!({"why": "linear_scattered", "spread_rad": 0.12}));
+        let refused = serde_json::to_value(colour(Some(ToneRetryJson::LinearRefused))).unwrap();
+        assert_eq!(refused["tone_retry"], serde_json::json!({"why": "linear_refused"}));
+        let linear = serde_json::to_value(colour(None)).unwrap();
+        assert!(linear.get("tone_retry").is_none(), "{linear}");
+        let back: LaserColourJson = serde_json::from_value(scattered).unwrap();
+        assert_eq!(back.tone_retry, Some(ToneRetryJson::LinearScattered { spread_rad: 0.12 }));
     }
 }
