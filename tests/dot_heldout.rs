@@ -15,10 +15,10 @@ use fslcal::laser::pipeline::{calibrate, PhotoStatus, SkipReason};
 const SEED: u64 = HELD_OUT_FIRST_SEED + 8;
 
 /// Share of the photos with a found board and a visible dot whose right dot is used: a floor
-/// under today's 4 of 7 on this seed, so a regression fails. The issue's target is 95%
-/// (issue 14); this set does not meet it yet (two faint dots missed, one photo whose
-/// strongest blob, far off the line, is judged an outlier).
-const MIN_RIGHT_SHARE: f64 = 0.5;
+/// under today's 8 of 9 on this seed (rendered through its unit's tone curve since stop 62),
+/// so a regression of two photos fails. The issue's target is 95% (issue 14); this set does
+/// not meet it yet (one visible dot missed).
+const MIN_RIGHT_SHARE: f64 = 0.75;
 
 #[test]
 fn held_out_calibration_uses_only_right_dots() {
