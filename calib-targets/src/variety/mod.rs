@@ -8,7 +8,7 @@
 //! camera's blur, motion streak, noise and JPEG quality (75-95), and impostors: specular
 //! glints, yellow-green tape, green fins and algae, the laser's own reflection, bubbles, sun
 //! flecks, the laser switched off. A *set* is one unit (one camera, one laser with its own
-//! colour, power and beam, [`unit`]) and its photos:
+//! colour, power and beam, and the camera's tone curve, [`unit`]) and its photos:
 //!
 //! - [`Kind::Calibration`]: 12-16 photos of the FishSense checkerboard at 0.55-5 m, the dot
 //!   on it, for `fslcal laser --target checkerboard:14x10@42.17mm`;
