@@ -648,8 +648,10 @@ fn miss_category(a: &Answer) -> String {
         ("the fit was refused", "candidates found, fit refused"),
         ("no usable dot", "candidates off the fitted line"),
         ("stalled", "fslcal stalled on the photo"),
-        ("no laser dot within", "no dot near the calibrated line"),
-        ("faint dot-like blobs", "ambiguous: several faint blobs"),
+        ("no laser dot on the calibrated laser's image", "no dot on the calibrated line"),
+        ("like it refused for", "ambiguous: beside look-alikes refused"),
+        ("none clearly the dot", "ambiguous: several dot-like blobs"),
+        ("not clearly the dot", "ambiguous: one blob, not clearly the dot"),
     ];
     known.iter().find(|(k, _)| r.contains(k)).map_or_else(|| format!("other: {r}"), |(_, v)| v.to_string())
 }

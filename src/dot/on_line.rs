@@ -405,8 +405,44 @@ pub enum DotOnLineError {
         /// plausible ones doubtful.
         lookalikes: usize,
     },
-    #[error("no laser dot on the calibrated laser's image (laser off, dot off the subject, or the laser has moved: `fslcal check` on several photos tells)")]
-    NoDot { half_width_px: f64 },
+    #[error("no laser dot on the calibrated laser's image (laser off, dot off the subject, or the laser has moved: `fslcal check` on several photos tells){}", refused_words(refused))]
+    NoDot {
+        half_width_px: f64,
+        /// Blobs on the line (within what the calibration explains) refused for their look,
+        /// size or distance: one may be the dot, for the user to give by hand.
+        refused: Vec<RefusedOnLine>,
+    },
+}
+
+/// A blob on the calibrated line that was refused, and why.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct RefusedOnLine {
+    pub pixel_px: [f64; 2],
+    pub why: Refusal,
+}
+
+/// Blobs named in a no-dot sentence at most; the report lists them all.
+const REFUSED_NAMED: usize = 3;
+
+/// The blobs on the line refused, in words for a no-dot sentence ("" when none).
+fn refused_words(refused: &[RefusedOnLine]) -> String {
+    let named: Vec<String> = refused
+        .iter()
+        .take(REFUSED_NAMED)
+        .map(|r| format!("({:.0}, {:.0}), {}", r.pixel_px[0], r.pixel_px[1], r.why.describe()))
+        .collect();
+    let more = refused.len().saturating_sub(REFUSED_NAMED);
+    match (refused.len(), more) {
+        (0, _) => String::new(),
+        (1, _) => format!("; refused on it: a blob at {} (give the dot by hand if it is the dot)", named[0]),
+        (n, 0) => {
+            format!("; refused on it: {n} blobs, at {} (give the dot by hand if one is the dot)", named.join("; "))
+        }
+        (n, m) => format!(
+            "; refused on it: {n} blobs, at {} and {m} more (give the dot by hand if one is the dot)",
+            named.join("; ")
+        ),
+    }
 }
 
 fn pixel_list(px: &[[f64; 2]]) -> String {
@@ -682,7 +718,14 @@ fn widest_beam_px(camera: &CameraModel, z_m: f64) -> f64 {
 pub fn choose(candidates: &[LineCandidate], band_half_width_px: f64) -> Result<LineDot, DotOnLineError> {
     let plausible: Vec<&LineCandidate> = candidates.iter().filter(|c| c.plausible()).collect();
     let Some(best) = plausible.iter().max_by(|a, b| a.weight().total_cmp(&b.weight())) else {
-        return Err(DotOnLineError::NoDot { half_width_px: band_half_width_px });
+        let refused = candidates
+            .iter()
+            .filter(|c| c.gate.explained())
+            .filter_map(|c| {
+                c.misfit.map(|why| RefusedOnLine { pixel_px: [c.candidate.pixel.x, c.candidate.pixel.y], why })
+            })
+            .collect();
+        return Err(DotOnLineError::NoDot { half_width_px: band_half_width_px, refused });
     };
     // Blobs on the line refused only for their look (colour, outline) say the scene makes
     // dot-like things here: one of their kind that slipped through those tests is as likely.
@@ -1103,6 +1146,34 @@ mod tests {
         assert!(
             choose(&[clipped_dot, clipped_tuft], 80.0).is_err(),
             "a clipped look-alike counts against a clipped dot"
+        );
+    }
+
+    /// With nothing plausible on the line, the no-dot sentence names the blobs the line
+    /// explains that were refused and why (the dot may be among them, for the user to give
+    /// by hand), at most three by place; a blob off the line is not named.
+    #[test]
+    fn a_no_dot_sentence_names_the_blobs_refused_on_the_line() {
+        let none = choose(&[blob(300.0, None, 10.0)], 80.0).unwrap_err();
+        assert!(matches!(none, DotOnLineError::NoDot { ref refused, .. } if refused.is_empty()), "{none}");
+        assert!(!none.to_string().contains("refused on it"), "{none}");
+        let one = choose(&[blob(120.0, Some(Refusal::OffColour), 0.4), blob(300.0, None, 10.0)], 80.0).unwrap_err();
+        assert!(
+            one.to_string().ends_with(
+                "; refused on it: a blob at (120, 100), not the laser's colour (give the dot by hand if it is the dot)"
+            ),
+            "{one}"
+        );
+        let why = [Refusal::TooLarge, Refusal::Ragged, Refusal::TooFaint, Refusal::TooSmall, Refusal::OffColour];
+        let many: Vec<LineCandidate> =
+            why.iter().enumerate().map(|(i, &r)| blob(100.0 + 50.0 * i as f64, Some(r), 0.4)).collect();
+        let e = choose(&many, 80.0).unwrap_err();
+        assert!(matches!(e, DotOnLineError::NoDot { ref refused, .. } if refused.len() == 5), "{e}");
+        assert!(
+            e.to_string().ends_with(
+                "; refused on it: 5 blobs, at (100, 100), too large for its distance; (150, 100), ragged outline: no beam's footprint; (200, 100), too faint for its distance and 2 more (give the dot by hand if one is the dot)"
+            ),
+            "{e}"
         );
     }
 

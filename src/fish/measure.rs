@@ -391,7 +391,9 @@ mod tests {
     #[test]
     fn flags_are_named_as_serde_tags_them_and_read_back() {
         let all = [
-            Withheld::NoDot { why: DotMissing::NotFound(DotOnLineError::NoDot { half_width_px: 80.0 }).into() },
+            Withheld::NoDot {
+                why: DotMissing::NotFound(DotOnLineError::NoDot { half_width_px: 80.0, refused: Vec::new() }).into(),
+            },
             Withheld::DotOffLaserLine { offset_px: 25.3, allowed_px: 3.1 },
             Withheld::OutsideCalibratedRange { distance_m: 1.03, range_m: (0.5, 0.8) },
             Withheld::CutByEdge,
