@@ -323,6 +323,7 @@ mod tests {
                 CheckSkip::NoDot(DotOnLineError::Ambiguous {
                     candidates_px: vec![[10.0, 20.0], [30.4, 40.6]],
                     lookalikes: 0,
+                    hiding_px: Vec::new(),
                 })
                 .into(),
             ),
