@@ -2069,6 +2069,41 @@ mod tests {
         assert!((dot.pixel - truth).norm() < 0.5, "{:?}", dot.pixel);
     }
 
+    /// The same dot smeared by the camera's motion into a streak 7 px long (centred on it, as
+    /// a steady drift during the exposure draws it) across toward the tuft: its white core
+    /// is drawn out about 2.5 times as long as wide in its second moments, and is still its
+    /// centre. Refused as not round, the centre was the disc's centroid, pulled toward the
+    /// tuft (held-out target-less 1000435/12, 1000438/10, 1000439/12: 3.1-6.6 px off, wrong
+    /// dots).
+    #[test]
+    fn a_white_core_drawn_out_by_motion_is_centred_on_itself_not_on_the_tuft_beside_it() {
+        let truth = Vec2::new(90.4, 70.7);
+        let taps = 15;
+        let streak = |x: usize, y: usize, peak: f64, sigma_px: f64| {
+            let along = |k: usize| truth + Vec2::new(7.0 * (k as f64 / (taps - 1) as f64 - 0.5), 0.0);
+            (0..taps).map(|k| spot(x, y, along(k), peak, sigma_px)).sum::<f64>() / taps as f64
+        };
+        let (data, w, h) = beside_tuft(Vec2::new(102.0, 74.0), |x, y, t| {
+            let core = streak(x, y, 900.0, 2.2);
+            let halo = streak(x, y, 160.0, 6.0);
+            [30.0 + core + 0.2 * halo + 40.0 * t, 80.0 + core + halo + 200.0 * t, 90.0 + core + 0.3 * halo + 10.0 * t]
+        });
+        let white: Vec<(usize, usize)> = (0..h)
+            .flat_map(|y| (0..w).map(move |x| (x, y)))
+            .filter(|&(x, y)| data[(y * w + x) * 3..(y * w + x) * 3 + 3].iter().all(|&v| v >= CLIPPED as u8))
+            .collect();
+        let n = white.len() as f64;
+        let (mx, my) = white.iter().fold((0.0, 0.0), |a, &(x, y)| (a.0 + x as f64 / n, a.1 + y as f64 / n));
+        let (vx, vy) = white
+            .iter()
+            .fold((0.0, 0.0), |a, &(x, y)| (a.0 + (x as f64 - mx).powi(2) / n, a.1 + (y as f64 - my).powi(2) / n));
+        assert!((2.0..3.0).contains(&(vx / vy)), "the core is drawn out: {vx:.2} / {vy:.2} over {n} px");
+        let c = find_dot_candidates(&view(&data, w, h), &SearchRegion::default(), &DotDetectorParams::default(), 4);
+        let dot = c.iter().find(|c| (c.pixel - truth).norm() < 8.0);
+        let dot = dot.unwrap_or_else(|| panic!("no candidate near the dot: {c:?}"));
+        assert!((dot.pixel - truth).norm() < 0.5, "{:?}", dot.pixel);
+    }
+
     /// A yellow-green dot whose green and red clip (not white: its blue stays low), touching a
     /// green tuft (red 2% of its green) whose green clips too: every clipped-green pixel
     /// weighed alike, the centre is pulled 3.4 px toward the tuft (seeds 1000100/00 and

