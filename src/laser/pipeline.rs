@@ -288,10 +288,9 @@ fn examine(job: &LaserJob, path: &Path, budget: &CropBudget) -> Result<PhotoResu
 /// A photo read again through `job`'s tone curve, its target where `before` placed it.
 fn reexamine(job: &LaserJob, path: &Path, before: &PhotoResult, budget: &CropBudget) -> PhotoResult {
     let placement = before.as_ref().map_err(Clone::clone)?.placement();
-    let photo = EncodedPhoto::read(path).and_then(|e| e.decode()).map_err(|e| {
-        let file = path.display().to_string();
-        Reason::from(TargetMiss::Unreadable { detail: super::target::strip_path(&e.to_string(), &file) })
-    })?;
+    let photo = EncodedPhoto::read(path)
+        .and_then(|e| e.decode())
+        .map_err(|e| Reason::from(super::target::unreadable(path, &e)))?;
     Ok(search_target(job, path, &photo, placement, budget))
 }
 

@@ -196,7 +196,7 @@ pub fn locate_target(
     path: &Path,
 ) -> Result<Result<LocatedTarget, Reason<TargetMiss>>, LaserError> {
     let file = path.display().to_string();
-    let unreadable = |e: VisionError| TargetMiss::Unreadable { detail: strip_path(&e.to_string(), &file) };
+    let unreadable = |e: VisionError| unreadable(path, &e);
     let encoded = match EncodedPhoto::read(path) {
         Ok(e) => e,
         Err(e) => return Ok(Err(unreadable(e).into())),
@@ -359,6 +359,12 @@ fn target_outline_px(camera: &CameraModel, outline: &[[f64; 3]; 4], pad_m: f64, 
             camera.project(&pose.to_camera(&out))
         })
         .collect()
+}
+
+/// The photo at `path` could not be read or decoded: the reader's message, without the path
+/// the report already names.
+pub(crate) fn unreadable(path: &Path, e: &VisionError) -> TargetMiss {
+    TargetMiss::Unreadable { detail: strip_path(&e.to_string(), &path.display().to_string()) }
 }
 
 /// Error texts from the vision module start with the path; the report already names it.
