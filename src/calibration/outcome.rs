@@ -60,7 +60,7 @@ impl fmt::Display for ValidationSkip {
                 f,
                 "{} dot-like blobs on the target along the calibrated laser's image and none clearly the dot, at {}",
                 candidates_px.len(),
-                candidates_px.iter().map(|p| format!("({:.0}, {:.0})", p[0], p[1])).collect::<Vec<_>>().join(", ")
+                crate::dot::on_line::pixel_list(candidates_px)
             ),
             ValidationSkip::NotTheDot { by_laser_m, on_target_m } => write!(
                 f,
@@ -232,7 +232,7 @@ impl CandidateCheck {
     /// A line candidate against the calibrated laser, refused or not under the believed one.
     pub fn of(c: &crate::dot::on_line::LineCandidate, refused: Option<Refusal>) -> Self {
         CandidateCheck {
-            pixel: [c.candidate.pixel.x, c.candidate.pixel.y],
+            pixel: c.pixel_px(),
             snr: c.candidate.snr,
             colour_sigmas: c.candidate.colour_score,
             colour_angle_deg: c.candidate.colour_angle_rad.to_degrees(),

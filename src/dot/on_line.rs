@@ -297,13 +297,19 @@ impl LineCandidate {
     /// Its place, signal and clipping alone: what a look-alike refused for its colour or
     /// outline is weighed by, since its colour has already told against it.
     fn look_weight(&self) -> f64 {
+        (-0.5 * self.gate.chi2).exp() * self.signal_weight()
+    }
+
+    /// Its signal and clipping, wherever on the band it lies: the look of a blob as if on
+    /// the line's centre.
+    fn signal_weight(&self) -> f64 {
         let clipped = if self.candidate.saturated_core {
             CLIPPED_ODDS
         } else {
             (self.gate.depth_m / UNCLIPPED_NEAR_M).min(1.0).powi(2)
         };
         let snr = self.candidate.snr / self.photo_scale;
-        (-0.5 * self.gate.chi2).exp() * snr.max(1.0).powf(SNR_POWER) * clipped
+        snr.max(1.0).powf(SNR_POWER) * clipped
     }
 
     /// What a look-alike (refused for its colour or outline) counts against the chosen dot:
@@ -350,8 +356,12 @@ impl LineCandidate {
     /// chosen one: a dot inside it would lie on the line, so its look is weighed as if on the
     /// line's centre, and (as a look-alike's) only up to the `chosen` blob's look.
     fn hiding_weight(&self, chosen: &LineCandidate) -> f64 {
-        let on_line = LineCandidate { gate: LineGate { chi2: 0.0, ..self.gate }, ..self.clone() };
-        on_line.look_weight().min(chosen.look_weight())
+        self.signal_weight().min(chosen.look_weight())
+    }
+
+    /// Its centre in pixels, as the reports and sentences give it.
+    pub fn pixel_px(&self) -> [f64; 2] {
+        [self.candidate.pixel.x, self.candidate.pixel.y]
     }
 
     /// Why it cannot be the dot; `None` when plausible.
@@ -465,7 +475,7 @@ fn refused_words(refused: &[RefusedOnLine]) -> String {
     let named: Vec<String> = refused
         .iter()
         .take(REFUSED_NAMED)
-        .map(|r| format!("({:.0}, {:.0}), {}", r.pixel_px[0], r.pixel_px[1], r.why.describe()))
+        .map(|r| format!("{}, {}", pixel_words(r.pixel_px), r.why.describe()))
         .collect();
     let more = refused.len().saturating_sub(REFUSED_NAMED);
     match (refused.len(), more) {
@@ -481,18 +491,22 @@ fn refused_words(refused: &[RefusedOnLine]) -> String {
     }
 }
 
-fn pixel_list(px: &[[f64; 2]]) -> String {
-    px.iter().map(|p| format!("({:.0}, {:.0})", p[0], p[1])).collect::<Vec<_>>().join(", ")
+/// A pixel in a sentence, to the whole pixel: "(1234, 567)".
+pub fn pixel_words(p: [f64; 2]) -> String {
+    format!("({:.0}, {:.0})", p[0], p[1])
+}
+
+pub fn pixel_list(px: &[[f64; 2]]) -> String {
+    px.iter().map(|&p| pixel_words(p)).collect::<Vec<_>>().join(", ")
 }
 
 /// The brighter blobs that may hide the dot, in words for an ambiguity ("" when none).
 fn hiding_words(hiding_px: &[[f64; 2]]) -> String {
     match hiding_px {
         [] => String::new(),
-        [one] => format!(
-            " (the line runs through a brighter blob at ({:.0}, {:.0}), which may hide the dot)",
-            one[0], one[1]
-        ),
+        [one] => {
+            format!(" (the line runs through a brighter blob at {}, which may hide the dot)", pixel_words(*one))
+        }
         many => format!(" (the line runs through brighter blobs at {}, which may hide the dot)", pixel_list(many)),
     }
 }
@@ -505,10 +519,12 @@ fn ambiguity(candidates_px: &[[f64; 2]], lookalikes: usize) -> String {
         n => format!(" beside {n} blobs like it refused for their colour or outline"),
     };
     match candidates_px {
-        [one] => format!(
-            "a dot-like blob on the calibrated laser's image at ({:.0}, {:.0}){beside}, not clearly the dot",
-            one[0], one[1]
-        ),
+        [one] => {
+            format!(
+                "a dot-like blob on the calibrated laser's image at {}{beside}, not clearly the dot",
+                pixel_words(*one)
+            )
+        }
         many => format!(
             "{} dot-like blobs on the calibrated laser's image and none clearly the dot, at {}{beside}",
             many.len(),
@@ -769,9 +785,7 @@ pub fn choose(candidates: &[LineCandidate], band_half_width_px: f64) -> Result<L
         let refused = candidates
             .iter()
             .filter(|c| c.gate.explained())
-            .filter_map(|c| {
-                c.misfit.map(|why| RefusedOnLine { pixel_px: [c.candidate.pixel.x, c.candidate.pixel.y], why })
-            })
+            .filter_map(|c| c.misfit.map(|why| RefusedOnLine { pixel_px: c.pixel_px(), why }))
             .collect();
         return Err(DotOnLineError::NoDot { half_width_px: band_half_width_px, refused });
     };
@@ -807,8 +821,8 @@ pub fn choose(candidates: &[LineCandidate], band_half_width_px: f64) -> Result<L
         CLEAR_CONFIDENCE
     };
     if confidence < clear {
-        let candidates_px = plausible.iter().map(|c| [c.candidate.pixel.x, c.candidate.pixel.y]).collect();
-        let hiding_px = hiding.iter().map(|c| [c.candidate.pixel.x, c.candidate.pixel.y]).collect();
+        let candidates_px = plausible.iter().map(|c| c.pixel_px()).collect();
+        let hiding_px = hiding.iter().map(|c| c.pixel_px()).collect();
         return Err(DotOnLineError::Ambiguous { candidates_px, lookalikes: lookalikes.len(), hiding_px });
     }
     Ok(LineDot {

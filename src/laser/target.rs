@@ -196,14 +196,13 @@ pub fn locate_target(
     path: &Path,
 ) -> Result<Result<LocatedTarget, Reason<TargetMiss>>, LaserError> {
     let file = path.display().to_string();
-    let unreadable = |e: VisionError| unreadable(path, &e);
     let encoded = match EncodedPhoto::read(path) {
         Ok(e) => e,
-        Err(e) => return Ok(Err(unreadable(e).into())),
+        Err(e) => return Ok(Err(unreadable(path, &e).into())),
     };
     let (w, h) = match encoded.dimensions() {
         Ok(d) => d,
-        Err(e) => return Ok(Err(unreadable(e).into())),
+        Err(e) => return Ok(Err(unreadable(path, &e).into())),
     };
     if (w, h) != (camera.width_px, camera.height_px) {
         return Err(LaserError::ImageSize {

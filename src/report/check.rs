@@ -219,7 +219,7 @@ fn candidate_table(page: &mut Page, r: &CheckReport) {
             };
             rows.push(vec![
                 file_name(&p.file).into(),
-                format!("({:.0}, {:.0})", c.pixel[0], c.pixel[1]).into(),
+                crate::dot::on_line::pixel_words(c.pixel).into(),
                 format!("{:.2}", c.distance_m).into(),
                 format!("{:.1} / {:.1}", c.offset_px, c.sigma_px).into(),
                 format!("{:.0}", c.snr).into(),
