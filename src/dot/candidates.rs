@@ -533,7 +533,7 @@ fn peak_inside(
     let share = if small { REFUSED_BLOB_MAX_SHARE } else { PEAK_INSIDE_MAX_SHARE };
     let w = maps.roi.w;
     let (line, half) = band;
-    let rank = |i: usize| if maps.saturated[i] { f32::INFINITY } else { maps.excess[i] };
+    let rank = |i: usize| maps.rank(i);
     let mut peak: Option<usize> = None;
     for &i in pixels {
         // The band's distance only for a pixel that would be the new peak.
@@ -605,27 +605,17 @@ fn on_line_inside(
     if line.len() < 2 || pixels.len() < ON_LINE_MIN_BLOB_PX || whole.is_some_and(centred) {
         return None;
     }
-    let w = maps.roi.w;
-    let strip: Vec<usize> = pixels
-        .iter()
-        .copied()
-        .filter(|&i| distance_to_polyline(line, maps.roi.image_point(i % w, i / w)) <= ON_LINE_STRIP_PX)
-        .collect();
-    let rank = |i: usize| if maps.saturated[i] { f32::INFINITY } else { maps.excess[i] };
-    let peak = strip.iter().copied().max_by(|&a, &b| rank(a).total_cmp(&rank(b)))?;
     // A dot outshines the tuft or fin it merged with; a fin crossing the line has its
-    // brightest part on the line only by chance.
-    let brightest = pixels.iter().map(|&i| rank(i)).fold(f32::MIN, f32::max);
-    if rank(peak) < brightest {
+    // brightest part on the line only by chance. The line's distance is taken only for the
+    // blob's brightest pixels.
+    let w = maps.roi.w;
+    let brightest = pixels.iter().map(|&i| maps.rank(i)).fold(f32::MIN, f32::max);
+    let on_strip = |i: usize| distance_to_polyline(line, maps.roi.image_point(i % w, i / w)) <= ON_LINE_STRIP_PX;
+    let peak = pixels.iter().rev().copied().find(|&i| maps.rank(i) == brightest && on_strip(i))?;
+    if !maps.saturated[peak]
+        && f64::from(maps.excess[peak]) < ON_LINE_PEAK_OVER_MEDIAN * f64::from(maps.median_excess(pixels))
+    {
         return None;
-    }
-    if !maps.saturated[peak] {
-        let mut levels: Vec<f32> = pixels.iter().map(|&i| maps.excess[i]).collect();
-        let mid = levels.len() / 2;
-        let median = *levels.select_nth_unstable_by(mid, |a, b| a.total_cmp(b)).1;
-        if f64::from(maps.excess[peak]) < ON_LINE_PEAK_OVER_MEDIAN * f64::from(median) {
-            return None;
-        }
     }
     spot_at_peak(maps, pixels, (own, id), peak, REFUSED_BLOB_MAX_SHARE)
 }
@@ -708,9 +698,7 @@ fn spot_at_peak(
     let most = (share * pixels.len() as f64) as usize;
     let spot = if is_peak {
         grow_spot(maps, &seeds, (own, id), 0.5 * level, most).or_else(|| {
-            let mut levels: Vec<f32> = pixels.iter().map(|&i| maps.excess[i]).collect();
-            let mid = levels.len() / 2;
-            let base = *levels.select_nth_unstable_by(mid, |a, b| a.total_cmp(b)).1;
+            let base = maps.median_excess(pixels);
             let cut = base + 0.5 * (level - base);
             (level - base >= maps.threshold).then(|| grow_spot(maps, &seeds, (own, id), cut, most)).flatten()
         })
@@ -810,6 +798,22 @@ pub(super) struct RoiMaps {
 }
 
 impl RoiMaps {
+    /// A pixel's rank as a blob's peak: a clipped one above every unclipped excess.
+    fn rank(&self, i: usize) -> f32 {
+        if self.saturated[i] {
+            f32::INFINITY
+        } else {
+            self.excess[i]
+        }
+    }
+
+    /// The median excess over a blob's `pixels`.
+    fn median_excess(&self, pixels: &[usize]) -> f32 {
+        let mut levels: Vec<f32> = pixels.iter().map(|&i| self.excess[i]).collect();
+        let mid = levels.len() / 2;
+        *levels.select_nth_unstable_by(mid, |a, b| a.total_cmp(b)).1
+    }
+
     fn new(img: &ColourView, roi: Roi, params: &DotDetectorParams, squares: &[[Vec2; 4]]) -> RoiMaps {
         let weights = params.colour.matched_weights(scene_samples(img, roi), SCENE_NOISE_LEVELS);
         let lit = lit_channels(&params.colour);
