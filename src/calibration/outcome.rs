@@ -171,6 +171,10 @@ pub struct CandidateCheck {
     /// 1 sigma of that angle from the blob's noise, degrees.
     #[serde(default)]
     pub colour_angle_sigma_deg: f64,
+    /// 1 sigma of that angle from the texture of the surface around it, degrees: judged
+    /// with, beside `colour_angle_sigma_deg`.
+    #[serde(default)]
+    pub colour_texture_sigma_deg: f64,
     /// How far the white part of its excess falls short of the laser's, degrees: a
     /// pigment darkens a channel the laser's light would lift.
     #[serde(default)]
@@ -237,6 +241,7 @@ impl CandidateCheck {
             colour_sigmas: c.candidate.colour_score,
             colour_angle_deg: c.candidate.colour_angle_rad.to_degrees(),
             colour_angle_sigma_deg: c.candidate.colour_angle_sigma_rad.to_degrees(),
+            colour_texture_sigma_deg: c.candidate.colour_texture_sigma_rad.to_degrees(),
             white_deficit_deg: c.candidate.white_deficit_rad.to_degrees(),
             excess_rgb_levels: c.candidate.excess_rgb,
             radius_px: c.candidate.radius_px,

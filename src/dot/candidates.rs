@@ -130,6 +130,11 @@ pub struct DotCandidate {
     /// 1-sigma uncertainty of `colour_angle_rad`, radians: the map's noise over the scored
     /// pixels, and for a clipped blob at least [`CLIPPED_CHROMA_SIGMA_RAD`].
     pub colour_angle_sigma_rad: f64,
+    /// 1-sigma uncertainty of `colour_angle_rad` from the texture of the surface around it
+    /// ([`TEXTURE_ERROR_SHARE`]), radians; 0 where its hue is read against the ring. Its
+    /// colour is judged with both ([`Self::colour_sigmas`]); a unit's colour is
+    /// learned with `colour_angle_sigma_rad` alone, whose scatter tells a wrong tone curve.
+    pub colour_texture_sigma_rad: f64,
     /// How far the white part of its excess (`excess_rgb`) falls short of the laser's,
     /// radians ([`LaserColourModel::white_deficit_rad`]): a pigment darkens a channel the
     /// laser's light would lift.
@@ -166,6 +171,20 @@ pub struct DotCandidate {
     /// clips on the blob's surface ([`seen_through_clipping`]): its chroma repeats the model
     /// it was filled from, so it is no evidence of the laser's colour.
     pub colour_filled_in: bool,
+}
+
+impl DotCandidate {
+    /// How far its colour lies from `colour`, in sigmas of the laser's spread, its own noise
+    /// and the texture around it ([`LaserColourModel::colour_sigmas_on_texture`]); `None`
+    /// under the prior.
+    pub fn colour_sigmas(&self, colour: &LaserColourModel) -> Option<f64> {
+        colour.colour_sigmas_on_texture(
+            self.colour_angle_rad,
+            self.white_deficit_rad,
+            self.colour_angle_sigma_rad,
+            self.colour_texture_sigma_rad,
+        )
+    }
 }
 
 /// Tuning of the detector; the defaults suit 8-bit photos from 640 px to 4000 px wide.
@@ -355,7 +374,7 @@ pub fn find_dot_candidates(
 /// blob's size. Under the prior, which judges no colour, a spot always stands for its blob.
 fn another_light(colour: &LaserColourModel, spot: &DotCandidate, blob: &DotCandidate) -> bool {
     let spot_sigmas = colour.colour_sigmas(spot.colour_angle_rad, spot.white_deficit_rad, 0.0);
-    let blob_sigmas = colour.colour_sigmas(blob.colour_angle_rad, blob.white_deficit_rad, blob.colour_angle_sigma_rad);
+    let blob_sigmas = blob.colour_sigmas(colour);
     spot_sigmas.is_some() && !beyond_colour_gate(spot_sigmas) && beyond_colour_gate(blob_sigmas)
 }
 
@@ -1331,9 +1350,13 @@ fn blob_candidate(
     }
     // The hue only for the blobs that pass: its medians are wasted on the rest.
     let mut judged_excess_rgb = colour.excess_rgb;
+    let mut texture_sigma_rad = 0.0;
     if !colour.band.is_empty() {
+        let texture = params.colour.texture_across_levels(&colour.surround, maps.sigma);
         let hue = local_hue(colour.core_mean_rgb, colour.pixels, &mut colour.band);
         let local = params.colour.score_with(maps.weights, hue.excess_rgb, hue.equivalent_pixels, maps.sigma);
+        texture_sigma_rad = (TEXTURE_ERROR_SHARE * texture / params.colour.chroma_levels(hue.excess_rgb).max(1e-9))
+            .min(core::f64::consts::PI);
         (score.angle_rad, score.angle_sigma_rad) = (local.angle_rad, local.angle_sigma_rad);
         judged_excess_rgb = with_chroma_of(colour.excess_rgb, hue.excess_rgb);
     }
@@ -1424,6 +1447,7 @@ fn blob_candidate(
         } else {
             score.angle_sigma_rad
         },
+        colour_texture_sigma_rad: texture_sigma_rad,
         white_deficit_rad: params.colour.white_deficit_rad(colour.excess_rgb),
         outline_roughness,
         split_from_blob: false,
@@ -1550,6 +1574,10 @@ struct BlobColour {
     /// The pixels of the band just outside its core that its hue is read against
     /// ([`LOCAL_BACKGROUND_GAP_PX`]); empty when the hue is the ring's.
     band: Vec<[f64; 3]>,
+    /// Those of `band`'s pixels outside the blob itself: the surface's texture is read on
+    /// them, not on the blob's own rim (a bubble's ring reaches the band). Empty with fewer
+    /// than 12.
+    surround: Vec<[f64; 3]>,
 }
 
 /// A blob's mean excess over the median of the pixels just outside its core, and the
@@ -1587,6 +1615,7 @@ fn blob_colour(
     let hy = ((centre.y - roi.y0 as f64 + ring.1).ceil().max(0.0) as usize).min(roi.h - 1);
     let mut sig = [0f64; 3];
     let (mut scored_px, mut ring_px, mut near, mut local) = (Vec::new(), Vec::new(), Vec::new(), Vec::new());
+    let mut surround = Vec::new();
     for y in ly..=hy {
         for x in lx..=hx {
             if maps.saturated[y * roi.w + x] {
@@ -1609,6 +1638,9 @@ fn blob_colour(
             let beyond = d - fringe - LOCAL_BACKGROUND_GAP_PX;
             if !clipped_core && (label == id || label == 0) && beyond > 0.0 && beyond <= LOCAL_BACKGROUND_PX {
                 local.push(px);
+                if label == 0 {
+                    surround.push(px);
+                }
             }
             if label != id && d >= ring.0 && d <= ring.1 {
                 ring_px.push(px);
@@ -1634,7 +1666,10 @@ fn blob_colour(
     if filled_in || local.len() < 12 {
         local.clear();
     }
-    Some(BlobColour { excess_rgb: seen, pixels: n_sig, filled_in, core_mean_rgb, band: local })
+    if local.is_empty() || surround.len() < 12 {
+        surround.clear();
+    }
+    Some(BlobColour { excess_rgb: seen, pixels: n_sig, filled_in, core_mean_rgb, band: local, surround })
 }
 
 /// The share of `pixels` (R, G, B levels) clipped in each channel; NaN for none.
@@ -1681,6 +1716,24 @@ const CLIPPED_COLOUR_SHARE: f64 = 0.1;
 const LOCAL_BACKGROUND_GAP_PX: f64 = 4.0;
 /// How wide that band is, pixels.
 const LOCAL_BACKGROUND_PX: f64 = 3.0;
+
+/// Share of the surface's own spread across the laser's colour around a blob, beyond the
+/// camera's noise ([`LaserColourModel::texture_across_levels`] over the band its hue is read
+/// against, the blob's own pixels left out), that the band's median may be off by under the
+/// blob: its chroma angle is judged with that error beside the background's level
+/// (`BACKGROUND_ERROR_LEVELS`). The surface under a dot is not seen. On a flat one the band's
+/// median is it to a level; a dot between a fish's stripes, on a stripe's edge or on mottled
+/// reef sits on a surface that varies across the laser's colour by several levels within a
+/// few pixels, and read with one level's error a 37-level dot between a fish's dark stripes
+/// was refused 6.7 sigmas off its unit's colour (tuning target-less 3031/03). On the
+/// tuning and reported target-less photos (3030-3034, 1000432-441: 300 photos, 72 without a
+/// dot) right 169 -> 175, wrong 3 -> 3, every photo without a dot still "no dot"; at 1, one
+/// right dot withheld beside a tuft now within the gate (3034/02) and one wrong dot
+/// (1000436/12). Read over the blob's own pixels too, a bubble's rim in the band passed a
+/// bubble on the line of a laser-off photo as the dot (1000452/14). The unit's colour is
+/// still learned with the noise alone (`DotCandidate::colour_angle_sigma_rad`): learned
+/// with the texture, a companion calibration chose the wrong tone curve (1000432).
+const TEXTURE_ERROR_SHARE: f64 = 0.5;
 
 /// Variance of a median of normal samples over that of their mean, for large counts (pi/2).
 const MEDIAN_VARIANCE_RATIO: f64 = core::f64::consts::FRAC_PI_2;

@@ -243,6 +243,28 @@ impl LaserColourModel {
         ColourScore { sigmas, angle_rad: self.angle_rad(mean_excess), angle_sigma_rad }
     }
 
+    /// How much `pixels` (R, G, B levels) vary across the laser's colour beyond what the
+    /// camera's `noise_levels` per pixel explain: their standard deviation along the
+    /// off-colour axis, the noise taken out in quadrature. A surface's texture moves a blob's
+    /// background there, and with it its chroma; brightness and the laser's own light move it
+    /// along the other axes. 0 for fewer than two pixels.
+    pub fn texture_across_levels(&self, pixels: &[[f64; 3]], noise_levels: f64) -> f64 {
+        let n = pixels.len() as f64;
+        if n < 2.0 {
+            return 0.0;
+        }
+        let v: Vec<f64> = pixels.iter().map(|p| dot(*p, self.across)).collect();
+        let mean = v.iter().sum::<f64>() / n;
+        let var = v.iter().map(|x| (x - mean).powi(2)).sum::<f64>() / (n - 1.0);
+        (var - noise_levels * noise_levels).max(0.0).sqrt()
+    }
+
+    /// Length of an excess's (R, G, B levels) chroma, the part not white, levels: what an
+    /// error across the laser's colour turns its angle by.
+    pub fn chroma_levels(&self, excess: [f64; 3]) -> f64 {
+        dot(excess, self.along).hypot(dot(excess, self.across))
+    }
+
     /// Contrast of an excess (R, G, B over background, 8-bit levels) along the laser's
     /// colour, levels.
     pub fn contrast(&self, excess: [f64; 3]) -> f64 {
@@ -355,9 +377,24 @@ impl LaserColourModel {
     /// chroma angle and its white part's deficit ([`Self::white_deficit_rad`]), the deficit
     /// judged against [`WHITE_PART_SPREAD_RATIO`] times the spread. `None` under the prior.
     pub fn colour_sigmas(&self, angle_rad: f64, white_deficit_rad: f64, angle_sigma_rad: f64) -> Option<f64> {
+        self.colour_sigmas_on_texture(angle_rad, white_deficit_rad, angle_sigma_rad, 0.0)
+    }
+
+    /// [`Self::colour_sigmas`] of a blob whose chroma angle is also uncertain by
+    /// `texture_sigma_rad` for the surface's texture around it. The texture moves the chroma
+    /// only: a pigment's white deficit (tens of degrees for a fin or a tuft) is judged as
+    /// before, or a fin on a mottled fish passed as the dot on a laser-off photo (tuning
+    /// target-less 1000437/00, a deficit of 84 degrees).
+    pub fn colour_sigmas_on_texture(
+        &self,
+        angle_rad: f64,
+        white_deficit_rad: f64,
+        angle_sigma_rad: f64,
+        texture_sigma_rad: f64,
+    ) -> Option<f64> {
         matches!(self.source, ColourSource::Learned { .. }).then(|| {
             let s = self.spread_rad.hypot(angle_sigma_rad);
-            (angle_rad / s).hypot(white_deficit_rad / (WHITE_PART_SPREAD_RATIO * s))
+            (angle_rad / s.hypot(texture_sigma_rad)).hypot(white_deficit_rad / (WHITE_PART_SPREAD_RATIO * s))
         })
     }
 
@@ -565,6 +602,32 @@ mod tests {
         assert!(s.angle_rad < 1e-9);
         assert!((s.sigmas - m.contrast(e) * 5.0 / 2.0).abs() < 1e-9);
         assert!(s.sigmas > 30.0, "{s:?}");
+    }
+
+    #[test]
+    fn texture_across_the_laser_colour_is_measured_beyond_the_noise_and_widens_the_angle() {
+        let m = LaserColourModel::green_prior();
+        let base = [40.0, 120.0, 110.0];
+        // Stripes 6 levels either side across the laser's colour, and as much along it and
+        // in brightness, which move no chroma.
+        let striped: Vec<[f64; 3]> = (0..200)
+            .map(|i| {
+                let s = if i % 2 == 0 { 6.0 } else { -6.0 };
+                let p = add(add(base, scale(m.across, s)), scale(m.along, s));
+                add(p, scale(WHITE, s))
+            })
+            .collect();
+        let spread = (6.0f64 * 6.0 * 200.0 / 199.0).sqrt();
+        assert!((m.texture_across_levels(&striped, 0.0) - spread).abs() < 1e-9);
+        // Noise of 3 levels comes out in quadrature; a flat surface has none left.
+        assert!((m.texture_across_levels(&striped, 3.0) - (spread * spread - 9.0).sqrt()).abs() < 1e-9);
+        assert_eq!(m.texture_across_levels(&vec![base; 50], 2.0), 0.0);
+        assert_eq!(m.texture_across_levels(&[base], 0.0), 0.0);
+        // A 30-level dot's chroma, 20 degrees off the laser's colour, turned by an error of
+        // that spread: about 11 degrees.
+        let e = add(scale(m.along, 30.0 * 20f64.to_radians().cos()), scale(m.across, 30.0 * 20f64.to_radians().sin()));
+        assert!((m.chroma_levels(e) - 30.0).abs() < 1e-9);
+        assert!(((spread / m.chroma_levels(e)).to_degrees() - 11.5).abs() < 0.1);
     }
 
     #[test]

@@ -679,11 +679,7 @@ pub fn judge_candidate(
     // The band reaches past the line's ends: a blob there implies a depth outside the search.
     let (near, far) = search.depths_m;
     let near = if candidate.saturated_core { near.min(CLIPPED_NEAR_M) } else { near };
-    let colour_sigmas = search.detector.colour.colour_sigmas(
-        candidate.colour_angle_rad,
-        candidate.white_deficit_rad,
-        candidate.colour_angle_sigma_rad,
-    );
+    let colour_sigmas = candidate.colour_sigmas(&search.detector.colour);
     let off_colour = beyond_colour_gate(colour_sigmas);
     let misfit = if gate.depth_m < near || gate.depth_m > far {
         Some(Refusal::OutOfRange)

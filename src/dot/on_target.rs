@@ -103,6 +103,7 @@ pub fn hand_candidate(px: Vec2) -> DotCandidate {
         colour_score: f64::INFINITY,
         colour_angle_rad: 0.0,
         colour_angle_sigma_rad: 0.0,
+        colour_texture_sigma_rad: 0.0,
         white_deficit_rad: 0.0,
         outline_roughness: None,
         split_from_blob: false,

@@ -280,6 +280,7 @@ mod tests {
             colour_score: score,
             colour_angle_rad: 0.1,
             colour_angle_sigma_rad: 0.02,
+            colour_texture_sigma_rad: 0.0,
             white_deficit_rad: 0.0,
             outline_roughness: None,
             split_from_blob: false,

@@ -223,7 +223,12 @@ fn candidate_table(page: &mut Page, r: &CheckReport) {
                 format!("{:.2}", c.distance_m).into(),
                 format!("{:.1} / {:.1}", c.offset_px, c.sigma_px).into(),
                 format!("{:.0}", c.snr).into(),
-                format!("{:.0} +- {:.0}", c.colour_angle_deg, c.colour_angle_sigma_deg.max(0.5)).into(),
+                format!(
+                    "{:.0} +- {:.0}",
+                    c.colour_angle_deg,
+                    c.colour_angle_sigma_deg.hypot(c.colour_texture_sigma_deg).max(0.5)
+                )
+                .into(),
                 format!("{:.0}", c.white_deficit_deg).into(),
                 c.outline_roughness.map_or("-".into(), |o| format!("{o:.3}")).into(),
                 verdict,
