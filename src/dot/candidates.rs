@@ -1356,7 +1356,7 @@ fn blob_candidate(
         let hue = local_hue(colour.core_mean_rgb, colour.pixels, &mut colour.band);
         let local = params.colour.score_with(maps.weights, hue.excess_rgb, hue.equivalent_pixels, maps.sigma);
         texture_sigma_rad = (TEXTURE_ERROR_SHARE * texture / params.colour.chroma_levels(hue.excess_rgb).max(1e-9))
-            .min(core::f64::consts::PI);
+            .min(MAX_TEXTURE_SIGMA_RAD);
         (score.angle_rad, score.angle_sigma_rad) = (local.angle_rad, local.angle_sigma_rad);
         judged_excess_rgb = with_chroma_of(colour.excess_rgb, hue.excess_rgb);
     }
@@ -1734,6 +1734,15 @@ const LOCAL_BACKGROUND_PX: f64 = 3.0;
 /// still learned with the noise alone (`DotCandidate::colour_angle_sigma_rad`): learned
 /// with the texture, a companion calibration chose the wrong tone curve (1000432).
 const TEXTURE_ERROR_SHARE: f64 = 0.5;
+
+/// Most the surface's texture adds to a blob's chroma uncertainty ([`TEXTURE_ERROR_SHARE`]),
+/// radians (11.5 degrees). A faint blob on a busy surface has a chroma the texture could
+/// turn anywhere; uncapped, its angle counted as known to 48 degrees and a blob 63 degrees
+/// off its unit's colour passed as the dot on a laser-off photo (held-out target-less
+/// 1000460/16). Texture that large leaves the colour unmeasured, which is no evidence for the
+/// laser. On the tuning and reported target-less photos (300) right 175 -> 174 against no
+/// cap (wrong 3 -> 3); at 0.15, 172.
+const MAX_TEXTURE_SIGMA_RAD: f64 = 0.2;
 
 /// Variance of a median of normal samples over that of their mean, for large counts (pi/2).
 const MEDIAN_VARIANCE_RATIO: f64 = core::f64::consts::FRAC_PI_2;
