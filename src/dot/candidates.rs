@@ -1576,7 +1576,7 @@ struct BlobColour {
     band: Vec<[f64; 3]>,
     /// Those of `band`'s pixels outside the blob itself: the surface's texture is read on
     /// them, not on the blob's own rim (a bubble's ring reaches the band). Empty with fewer
-    /// than 12.
+    /// than [`MIN_BAND_PX`].
     surround: Vec<[f64; 3]>,
 }
 
@@ -1663,10 +1663,10 @@ fn blob_colour(
     let seen = seen_through_clipping(excess_rgb, blind, laser_rgb);
     let filled_in = seen != excess_rgb;
     // A channel clipped on the surface has no local contrast either: its fill stands.
-    if filled_in || local.len() < 12 {
+    if filled_in || local.len() < MIN_BAND_PX {
         local.clear();
     }
-    if local.is_empty() || surround.len() < 12 {
+    if local.is_empty() || surround.len() < MIN_BAND_PX {
         surround.clear();
     }
     Some(BlobColour { excess_rgb: seen, pixels: n_sig, filled_in, core_mean_rgb, band: local, surround })
@@ -1716,6 +1716,10 @@ const CLIPPED_COLOUR_SHARE: f64 = 0.1;
 const LOCAL_BACKGROUND_GAP_PX: f64 = 4.0;
 /// How wide that band is, pixels.
 const LOCAL_BACKGROUND_PX: f64 = 3.0;
+
+/// Fewest pixels of that band a hue is read against, and of its part outside the blob that
+/// its texture is read on; with fewer the ring stands in, and the texture counts nothing.
+const MIN_BAND_PX: usize = 12;
 
 /// Share of the surface's own spread across the laser's colour around a blob, beyond the
 /// camera's noise ([`LaserColourModel::texture_across_levels`] over the band its hue is read
